@@ -1,0 +1,43 @@
+"""vpforms — volume-preserving generating forms in R³ as numerical integrators.
+
+Reference implementation of Verdier, Xue & Zanna, *A classification of volume preserving
+generating forms in R³* (arXiv 1412.6345), with the corrections of the project's MATH.md.
+
+Importing vpforms enables JAX float64 (see :mod:`vpforms._config`, the one place it is set).
+"""
+
+from . import _config  # noqa: F401  (enables jax_enable_x64 before any array is made)
+from ._case import CLASSES, Case, cases, class_of_tau
+from ._errors import (
+    RESULTS,
+    ConvergenceError,
+    NonFiniteError,
+    NotDivergenceFreeError,
+    TwistConditionError,
+    VPFormsError,
+    raise_for_status,
+)
+from ._map import GeneratingMap
+from ._newton import newton_scalar
+from ._perm import FLIP, Perm, as_perm
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "CLASSES",
+    "Case",
+    "cases",
+    "class_of_tau",
+    "RESULTS",
+    "ConvergenceError",
+    "NonFiniteError",
+    "NotDivergenceFreeError",
+    "TwistConditionError",
+    "VPFormsError",
+    "raise_for_status",
+    "GeneratingMap",
+    "newton_scalar",
+    "FLIP",
+    "Perm",
+    "as_perm",
+]

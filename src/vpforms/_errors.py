@@ -1,0 +1,88 @@
+"""Errors and per-point status codes.
+
+Inside jitted code nothing can raise, so every solve returns an integer status per point (like
+diffrax's ``RESULTS``); :func:`raise_for_status` turns a concrete status array into a readable
+exception at the boundary between jitted and user code.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = [
+    "VPFormsError",
+    "TwistConditionError",
+    "ConvergenceError",
+    "NonFiniteError",
+    "NotDivergenceFreeError",
+    "RESULTS",
+    "raise_for_status",
+]
+
+
+class VPFormsError(Exception):
+    """Base class of every error vpforms raises on purpose."""
+
+
+class TwistConditionError(VPFormsError):
+    """A twist condition failed: ∂₁₂φ = 0 (volpot1) or ∂₂₃Φ = 0 (volpot2) at a point."""
+
+
+class ConvergenceError(VPFormsError):
+    """A Newton iteration did not converge within its iteration cap (or diverged)."""
+
+
+class NonFiniteError(VPFormsError, ValueError):
+    """A point or a potential value was NaN or infinite."""
+
+
+class NotDivergenceFreeError(VPFormsError, ValueError):
+    """A vector field given as divergence free is not."""
+
+
+class RESULTS:
+    """Per-point status codes returned by jitted solves (``int32`` arrays)."""
+
+    successful = 0
+    twist_failure = 1
+    not_converged = 2
+    nonfinite = 3
+
+    messages = {
+        successful: "converged",
+        twist_failure: "twist condition failed (∂₁₂φ = 0 in volpot1 or ∂₂₃Φ = 0 in volpot2)",
+        not_converged: "Newton iteration did not converge",
+        nonfinite: "non-finite input or result (NaN/inf)",
+    }
+    errors = {
+        twist_failure: TwistConditionError,
+        not_converged: ConvergenceError,
+        nonfinite: NonFiniteError,
+    }
+
+
+def raise_for_status(status, what: str = "generating map", max_indices: int = 5) -> None:
+    """Raise the named error for the first failure code present in a concrete status array.
+
+    The message says how many points failed, with which status, and the first indices.
+    """
+    status = np.asarray(status)
+    if status.size == 0 or not np.any(status != RESULTS.successful):
+        return
+    flat = status.reshape(-1)
+    parts = []
+    first_code = None
+    for code in (RESULTS.nonfinite, RESULTS.twist_failure, RESULTS.not_converged):
+        idx = np.flatnonzero(flat == code)
+        if idx.size:
+            first_code = first_code if first_code is not None else code
+            shown = ", ".join(str(i) for i in idx[:max_indices])
+            more = ", …" if idx.size > max_indices else ""
+            parts.append(
+                f"{idx.size} of {flat.size} point(s): {RESULTS.messages[code]} "
+                f"(first indices: [{shown}{more}])"
+            )
+    unknown = np.flatnonzero(~np.isin(flat, list(RESULTS.messages)))
+    if unknown.size:
+        raise VPFormsError(f"{what}: unknown status codes {np.unique(flat[unknown])}")
+    raise RESULTS.errors[first_code](f"{what} failed at " + "; ".join(parts))
