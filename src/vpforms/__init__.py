@@ -18,6 +18,7 @@ from ._errors import (
     raise_for_status,
 )
 from ._map import GeneratingMap
+from .fields import Field
 from ._newton import newton_scalar
 from ._perm import FLIP, Perm, as_perm
 
@@ -36,6 +37,7 @@ __all__ = [
     "VPFormsError",
     "raise_for_status",
     "GeneratingMap",
+    "Field",
     "newton_scalar",
     "FLIP",
     "Perm",

@@ -1,0 +1,795 @@
+"""Divergence-free vector fields on R³ and their generating-form potentials (MATH.md §3).
+
+Every generating-form method consumes *potentials*, not the field:
+
+* SE+SE (and the SE stages):  a = vf1(F¹) + vf3(F³)          (eq:vf1, eq:vf3)
+* DL classes:                 a = vf1(G¹) + vf2(G²)          (eq:vf1, eq:vf2)
+
+with vf1(F) = (0, ∂₃F, −∂₂F), vf2(F) = (−∂₃F, 0, ∂₁F), vf3(F) = (∂₂F, −∂₁F, 0).  For a
+divergence-free a they are built by one-dimensional integrals from a base point c (``origin``,
+default 0, which gives exactly the formulas of MATH.md §3):
+
+    F³ = ∫_{c₂}^{x₂} a₁(x₁,s,x₃) ds,
+    F¹ = −∫_{c₂}^{x₂} a₃(x₁,s,x₃) ds + ∫_{c₃}^{x₃} a₂(x₁,c₂,t) dt,
+    G¹ = ∫_{c₃}^{x₃} a₂(x₁,x₂,t) dt,
+    G² = −∫_{c₃}^{x₃} a₁(x₁,x₂,t) dt + ∫_{c₁}^{x₁} a₃(s,x₂,c₃) ds.
+
+(The middle/last components come out right only because div a = 0.)  A :class:`Field` built
+from SymPy expressions gets closed forms from ``sympy.integrate`` when that succeeds and the result
+verifies symbolically; otherwise — and always for fields given as JAX callables — the potentials are
+differentiable Gauss–Legendre quadratures (:mod:`vpforms._quadrature`), so methods that
+differentiate them stay exactly volume preserving.
+
+Potentials are computed on first access of :attr:`Field.se_potentials` /
+:attr:`Field.dl_potentials` and cached; the divergence check happens at construction.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import sympy as sp
+
+from . import _config  # noqa: F401  (float64)
+from ._errors import NotDivergenceFreeError, VPFormsError
+from ._quadrature import DEFAULT_N, line_integral
+
+__all__ = [
+    "Field",
+    "PotentialError",
+    "SYMBOLS",
+    "vf1",
+    "vf2",
+    "vf3",
+    "vf1_expr",
+    "vf2_expr",
+    "vf3_expr",
+    "lie_derivative_expr",
+]
+
+#: Default coordinate symbols x1, x2, x3 (real).
+SYMBOLS: tuple[sp.Symbol, sp.Symbol, sp.Symbol] = sp.symbols("x1 x2 x3", real=True)
+
+Scalar = Callable[[Any, Any, Any], Any]
+
+_DEFAULT_BOX = ((-1.0, 1.0),) * 3
+_SPLITTINGS = ("se", "dl")
+
+
+class PotentialError(VPFormsError, ValueError):
+    """Potentials given for a field do not reproduce it (or cannot be built)."""
+
+
+# ---------------------------------------------------------------------------------------------
+# vf1, vf2, vf3 — on JAX scalar callables and on SymPy expressions
+# ---------------------------------------------------------------------------------------------
+def _grad3(F: Scalar) -> Callable[[jax.Array], jax.Array]:
+    return jax.grad(lambda x: F(x[0], x[1], x[2]))
+
+
+def vf1(F: Scalar) -> Callable[[jax.Array], jax.Array]:
+    """x ↦ vf1(F)(x) = (0, ∂₃F, −∂₂F) for a JAX scalar callable F(x1, x2, x3); x of shape (3,)."""
+    g = _grad3(F)
+
+    def v(x):
+        d = g(x)
+        return jnp.stack([jnp.zeros_like(d[0]), d[2], -d[1]])
+
+    return v
+
+
+def vf2(F: Scalar) -> Callable[[jax.Array], jax.Array]:
+    """x ↦ vf2(F)(x) = (−∂₃F, 0, ∂₁F)."""
+    g = _grad3(F)
+
+    def v(x):
+        d = g(x)
+        return jnp.stack([-d[2], jnp.zeros_like(d[0]), d[0]])
+
+    return v
+
+
+def vf3(F: Scalar) -> Callable[[jax.Array], jax.Array]:
+    """x ↦ vf3(F)(x) = (∂₂F, −∂₁F, 0)."""
+    g = _grad3(F)
+
+    def v(x):
+        d = g(x)
+        return jnp.stack([d[1], -d[0], jnp.zeros_like(d[0])])
+
+    return v
+
+
+def vf1_expr(F: Any, symbols: Sequence[sp.Symbol] = SYMBOLS) -> tuple:
+    x1, x2, x3 = symbols
+    return (sp.Integer(0), sp.diff(F, x3), -sp.diff(F, x2))
+
+
+def vf2_expr(F: Any, symbols: Sequence[sp.Symbol] = SYMBOLS) -> tuple:
+    x1, x2, x3 = symbols
+    return (-sp.diff(F, x3), sp.Integer(0), sp.diff(F, x1))
+
+
+def vf3_expr(F: Any, symbols: Sequence[sp.Symbol] = SYMBOLS) -> tuple:
+    x1, x2, x3 = symbols
+    return (sp.diff(F, x2), -sp.diff(F, x1), sp.Integer(0))
+
+
+def lie_derivative_expr(I: Any, exprs: Sequence[Any], symbols: Sequence[sp.Symbol] = SYMBOLS):
+    """L_a I = ∇I · a (unsimplified SymPy expression)."""
+    return sum(sp.diff(I, s) * e for s, e in zip(symbols, exprs))
+
+
+# ---------------------------------------------------------------------------------------------
+# helpers
+# ---------------------------------------------------------------------------------------------
+def _as_points(x: Any) -> jax.Array:
+    x = jnp.asarray(x, dtype=jnp.result_type(float))
+    if x.ndim == 0 or x.shape[-1] != 3:
+        raise ValueError(f"points must have shape (3,) or (N, 3); got shape {tuple(x.shape)}")
+    return x
+
+
+def _batched(fn: Callable, x: jax.Array):
+    if x.ndim == 1:
+        return fn(x)
+    lead = x.shape[:-1]
+    out = jax.vmap(fn)(x.reshape(-1, 3))
+    return out.reshape(*lead, *out.shape[1:])
+
+
+def _check_box(box: Any) -> tuple[tuple[float, float], ...]:
+    try:
+        b = np.asarray(box, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"box must be ((lo1, hi1), (lo2, hi2), (lo3, hi3)); got {box!r}") from None
+    if b.shape != (3, 2) or not np.all(np.isfinite(b)) or np.any(b[:, 1] < b[:, 0]):
+        raise ValueError(
+            f"box must be ((lo1, hi1), (lo2, hi2), (lo3, hi3)) with lo ≤ hi; got {box!r}"
+        )
+    return tuple((float(lo), float(hi)) for lo, hi in b)
+
+
+def sample_box(box: Any, n: int, seed: int = 0) -> np.ndarray:
+    """n uniform random points in the box (seeded), shape (n, 3)."""
+    b = np.asarray(_check_box(box))
+    rng = np.random.default_rng(seed)
+    return b[:, 0] + (b[:, 1] - b[:, 0]) * rng.random((n, 3))
+
+
+def _lambdify_scalar(expr: Any, symbols: Sequence[sp.Symbol]) -> Scalar:
+    """SymPy expression → JAX scalar callable (x1, x2, x3) -> scalar (float64)."""
+    f = sp.lambdify(tuple(symbols), expr, modules="jax")
+    if not (sp.sympify(expr).free_symbols & set(symbols)):
+        const = float(expr)
+
+        def g(x1, x2, x3):
+            return jnp.zeros_like(jnp.asarray(x1, dtype=float)) + const
+
+    else:
+
+        def g(x1, x2, x3):
+            return jnp.asarray(f(x1, x2, x3), dtype=float)
+
+    g.__name__ = "lambdified"
+    g.__doc__ = f"JAX scalar function of {tuple(map(str, symbols))}: {expr}"
+    g._vpforms_expr = expr  # type: ignore[attr-defined]
+    return g
+
+
+def _float_scale(exprs: Sequence[Any]) -> float:
+    vals = [abs(float(f)) for e in exprs for f in sp.sympify(e).atoms(sp.Float)]
+    return max(vals) if vals else 1.0
+
+
+def _chop(expr: Any, thr: float) -> Any:
+    small = {f: sp.Integer(0) for f in expr.atoms(sp.Float) if abs(float(f)) <= thr}
+    return sp.expand(expr.xreplace(small)) if small else expr
+
+
+def _symbolic_zero(expr: Any, symbols: Sequence[sp.Symbol], float_thr: float) -> bool:
+    """True if expr simplifies to 0 (Float coefficients ≤ float_thr count as rounding)."""
+    e = sp.expand(sp.sympify(expr))
+    if e == 0:
+        return True
+    if e.atoms(sp.Float):
+        e = _chop(e, float_thr)
+        if e == 0:
+            return True
+    if e.is_polynomial(*symbols):
+        return False  # an expanded nonzero polynomial is not zero
+    for simp in (sp.trigsimp, sp.simplify):
+        try:
+            s = simp(e)
+        except Exception:  # pragma: no cover - SymPy internals
+            continue
+        if s == 0:
+            return True
+        if s.atoms(sp.Float) and _chop(sp.expand(s), float_thr) == 0:
+            return True
+    return False
+
+
+def _numeric_max(fn: Callable, pts: np.ndarray) -> tuple[float, np.ndarray]:
+    vals = np.abs(np.asarray(fn(jnp.asarray(pts))))
+    vals = vals.reshape(len(pts), -1).max(axis=1)
+    if not np.all(np.isfinite(vals)):
+        i = int(np.flatnonzero(~np.isfinite(vals))[0])
+        return float("inf"), pts[i]
+    i = int(np.argmax(vals))
+    return float(vals[i]), pts[i]
+
+
+def _fmt_pt(p: Any) -> str:
+    return "(" + ", ".join(f"{float(v):.6g}" for v in np.asarray(p)) + ")"
+
+
+# ---------------------------------------------------------------------------------------------
+# Field
+# ---------------------------------------------------------------------------------------------
+class Field:
+    """A divergence-free vector field a : R³ → R³ with its SE and DL potentials.
+
+    Build it with :meth:`from_sympy` (preferred: exact divergence check, closed-form potentials),
+    :meth:`from_callable` (a JAX-traceable function; divergence checked by autodiff at sample points)
+    or :meth:`linear`.  See ``docs/ARCHITECTURE.md`` (contract ``Field``).
+
+    Attributes
+    ----------
+    components:
+        ``(a1, a2, a3)``, JAX scalar callables ``(x1, x2, x3) -> scalar``.
+    se_potentials:
+        ``(F1, F3)`` with a = vf1(F1) + vf3(F3)  (computed on first access).
+    dl_potentials:
+        ``(G1, G2)`` with a = vf1(G1) + vf2(G2).
+    potential_method, potential_methods:
+        how the potentials were obtained: ``"closed form"``, ``"quadrature(n=32)"`` or
+        ``"user-supplied"``; ``potential_methods`` is the dict per splitting.
+    linear_matrix:
+        numpy (3, 3) A if a(x) = A x, else None.
+    exprs, symbols:
+        SymPy expressions and symbols (None for callables).
+    se_potential_exprs, dl_potential_exprs:
+        SymPy expressions of closed-form / user-supplied symbolic potentials, else None.
+    box:
+        the box used for sample-point checks and error reports.
+    """
+
+    def __init__(
+        self,
+        components: Sequence[Scalar],
+        *,
+        name: str = "field",
+        box: Any = _DEFAULT_BOX,
+        exprs: Sequence[Any] | None = None,
+        symbols: Sequence[sp.Symbol] | None = None,
+        params: Mapping[str, float] | None = None,
+        linear_matrix: np.ndarray | None = None,
+        origin: Sequence[float] = (0.0, 0.0, 0.0),
+        quadrature_n: int = DEFAULT_N,
+        closed_form: bool = True,
+        divergence_check: str = "",
+        tol: float = 1e-10,
+        seed: int = 0,
+        n_samples: int = 256,
+    ):
+        if len(components) != 3 or not all(callable(c) for c in components):
+            raise ValueError("a Field needs exactly three callable components")
+        self.components: tuple[Scalar, Scalar, Scalar] = tuple(components)  # type: ignore[assignment]
+        self.name = name
+        self.box = _check_box(box)
+        self.exprs = tuple(exprs) if exprs is not None else None
+        self.symbols = tuple(symbols) if symbols is not None else None
+        self.params = dict(params or {})
+        self.linear_matrix = linear_matrix
+        self.origin = tuple(float(c) for c in origin)
+        if len(self.origin) != 3:
+            raise ValueError(f"origin must have 3 coordinates; got {origin!r}")
+        self.quadrature_n = int(quadrature_n)
+        self.closed_form = bool(closed_form)
+        self.divergence_check = divergence_check
+        self.tol = float(tol)
+        self.seed = int(seed)
+        self.n_samples = int(n_samples)
+        # potentials: splitting -> (callables, exprs or None, method)
+        self._potentials: dict[str, tuple[tuple[Scalar, Scalar], tuple | None, str]] = {}
+
+        comps = self.components
+
+        def vec(x):
+            return jnp.stack([jnp.asarray(c(x[0], x[1], x[2]), dtype=float) for c in comps])
+
+        self._vec = vec
+        self._eval = jax.jit(lambda x: _batched(vec, x))
+        self._jac = jax.jit(lambda x: _batched(jax.jacfwd(vec), x))
+        self._div = jax.jit(lambda x: _batched(lambda p: jnp.trace(jax.jacfwd(vec)(p)), x))
+        self._recon_fns: dict[str, Callable] = {}
+
+    # -- evaluation ----------------------------------------------------------------------------
+    def __call__(self, x: Any) -> jax.Array:
+        """a(x) for x of shape (3,) or (N, 3); same shape out."""
+        return self._eval(_as_points(x))
+
+    def jacobian(self, x: Any) -> jax.Array:
+        """Da(x), shape (3, 3) or (N, 3, 3); J[i, j] = ∂a_i/∂x_j (forward-mode autodiff)."""
+        return self._jac(_as_points(x))
+
+    def divergence(self, x: Any) -> jax.Array:
+        """div a(x) by autodiff, shape () or (N,)."""
+        return self._div(_as_points(x))
+
+    @property
+    def divergence_expr(self):
+        """The SymPy divergence (unsimplified), or None for callable fields."""
+        if self.exprs is None:
+            return None
+        return sum(sp.diff(e, s) for e, s in zip(self.exprs, self.symbols))
+
+    @property
+    def is_symbolic(self) -> bool:
+        return self.exprs is not None
+
+    def sample_points(self, n: int | None = None, seed: int | None = None) -> np.ndarray:
+        """Seeded uniform sample points in :attr:`box`."""
+        return sample_box(self.box, self.n_samples if n is None else n, self.seed if seed is None else seed)
+
+    # -- potentials ----------------------------------------------------------------------------
+    @property
+    def se_potentials(self) -> tuple[Scalar, Scalar]:
+        """(F1, F3) with a = vf1(F1) + vf3(F3)  (eq:vf1, eq:vf3)."""
+        return self._get("se")[0]
+
+    @property
+    def dl_potentials(self) -> tuple[Scalar, Scalar]:
+        """(G1, G2) with a = vf1(G1) + vf2(G2)  (eq:vf1, eq:vf2)."""
+        return self._get("dl")[0]
+
+    @property
+    def se_potential_exprs(self) -> tuple | None:
+        return self._get("se")[1]
+
+    @property
+    def dl_potential_exprs(self) -> tuple | None:
+        return self._get("dl")[1]
+
+    @property
+    def potential_methods(self) -> dict[str, str]:
+        return {k: self._get(k)[2] for k in _SPLITTINGS}
+
+    @property
+    def potential_method(self) -> str:
+        m = self.potential_methods
+        if m["se"] == m["dl"]:
+            return m["se"]
+        return "; ".join(f"{k}: {v}" for k, v in m.items())
+
+    def potentials(self, splitting: str) -> tuple[Scalar, Scalar]:
+        """``"se"`` → (F1, F3), ``"dl"`` → (G1, G2)."""
+        return self._get(_check_splitting(splitting))[0]
+
+    def _get(self, splitting: str):
+        if splitting not in self._potentials:
+            self._potentials[splitting] = self._build_potentials(splitting)
+        return self._potentials[splitting]
+
+    def _build_potentials(self, splitting: str):
+        if self.exprs is not None and self.closed_form:
+            got = _closed_form_potentials(self, splitting)
+            if got is not None:
+                exprs = got
+                fns = tuple(_lambdify_scalar(e, self.symbols) for e in exprs)
+                return fns, exprs, "closed form"
+        fns = _quadrature_potentials(self.components, splitting, self.origin, self.quadrature_n)
+        return fns, None, f"quadrature(n={self.quadrature_n})"
+
+    def potential_vector_field(self, splitting: str = "se") -> Callable[[jax.Array], jax.Array]:
+        """x ↦ vf1(F1)(x) + vf3(F3)(x) (``"se"``) or vf1(G1)(x) + vf2(G2)(x) (``"dl"``), x (3,)."""
+        splitting = _check_splitting(splitting)
+        P, Q = self.potentials(splitting)
+        u, v = vf1(P), (vf3(Q) if splitting == "se" else vf2(Q))
+        return lambda x: u(x) + v(x)
+
+    def reconstruct(self, x: Any, splitting: str = "se") -> jax.Array:
+        """The field rebuilt from its potentials by autodiff, at x of shape (3,) or (N, 3)."""
+        splitting = _check_splitting(splitting)
+        if splitting not in self._recon_fns:
+            fn = self.potential_vector_field(splitting)
+            self._recon_fns[splitting] = jax.jit(lambda x: _batched(fn, x))
+        return self._recon_fns[splitting](_as_points(x))
+
+    def reconstruction_error(
+        self, splitting: str = "se", n_points: int = 4096, seed: int = 1, box: Any = None
+    ) -> float:
+        """max |rebuilt − a|_∞ / max |a|_∞ over n_points seeded uniform points of the box."""
+        pts = jnp.asarray(sample_box(self.box if box is None else box, n_points, seed))
+        a = np.asarray(self(pts))
+        r = np.asarray(self.reconstruct(pts, splitting))
+        scale = max(float(np.max(np.abs(a))), np.finfo(float).tiny)
+        return float(np.max(np.abs(r - a)) / scale)
+
+    # -- constructors --------------------------------------------------------------------------
+    @classmethod
+    def from_sympy(
+        cls,
+        exprs: Sequence[Any],
+        symbols: Sequence[sp.Symbol] = SYMBOLS,
+        name: str = "field",
+        params: Mapping[Any, Any] | None = None,
+        potentials: Mapping[str, Sequence[Any]] | None = None,
+        *,
+        box: Any = _DEFAULT_BOX,
+        origin: Sequence[float] = (0.0, 0.0, 0.0),
+        quadrature_n: int = DEFAULT_N,
+        closed_form: bool = True,
+        tol: float = 1e-12,
+    ) -> "Field":
+        """A field from three SymPy expressions in ``symbols``.
+
+        ``params`` maps parameter symbols (or their names) to values substituted at construction.
+        The divergence is checked symbolically (expand → trigsimp → simplify); only if SymPy cannot
+        decide is it checked numerically at sample points of ``box`` (relative tolerance ``tol``),
+        and :attr:`divergence_check` says which.  ``potentials`` may give ``{"se": (F1, F3)}``
+        and/or ``{"dl": (G1, G2)}`` as SymPy expressions; they are verified symbolically.
+        """
+        if isinstance(exprs, (str, sp.Basic)) or len(exprs) != 3:
+            raise ValueError(f"exprs must be three SymPy expressions; got {exprs!r}")
+        try:
+            exprs = tuple(sp.sympify(e) for e in exprs)
+        except (sp.SympifyError, TypeError) as err:
+            raise ValueError(f"exprs must be SymPy expressions: {err}") from None
+        if isinstance(symbols, (str, sp.Basic)) or len(symbols) != 3:
+            raise ValueError(f"symbols must be three SymPy symbols; got {symbols!r}")
+        symbols = tuple(symbols)
+        if not all(isinstance(s, sp.Symbol) for s in symbols) or len(set(symbols)) != 3:
+            raise ValueError(f"symbols must be three distinct SymPy symbols; got {symbols!r}")
+        subs, pvals = _param_subs(params, exprs, potentials)
+        exprs = tuple(e.xreplace(subs) if subs else e for e in exprs)
+        extra = set().union(*(e.free_symbols for e in exprs)) - set(symbols)
+        if extra:
+            raise ValueError(
+                f"field {name!r} has free symbols {sorted(map(str, extra))} besides the "
+                f"coordinates {[str(s) for s in symbols]}; give their values in params"
+            )
+        box = _check_box(box)
+
+        # exact divergence check
+        div = sum(sp.diff(e, s) for e, s in zip(exprs, symbols))
+        thr = 1e-13 * _float_scale(exprs)
+        if _symbolic_zero(div, symbols, thr):
+            how = "symbolic"
+        else:
+            pts = sample_box(box, 512, 0)
+            f = sp.lambdify(symbols, div, modules="numpy")
+            vals = np.broadcast_to(np.asarray(f(*pts.T), dtype=float), (len(pts),))
+            jac_scale = _numeric_jac_scale(exprs, symbols, pts)
+            i = int(np.nanargmax(np.abs(vals))) if np.all(np.isfinite(vals)) else int(
+                np.flatnonzero(~np.isfinite(vals))[0]
+            )
+            if np.isfinite(vals[i]) and abs(vals[i]) <= tol * jac_scale:
+                how = "numerical"
+            else:
+                raise NotDivergenceFreeError(
+                    f"field {name!r} is not divergence free: div a = {sp.simplify(div)} does not "
+                    f"simplify to 0; the largest |div a| found at {len(pts)} points of the box "
+                    f"{box} is {abs(vals[i]):.6g} at x = {_fmt_pt(pts[i])}"
+                )
+
+        comps = tuple(_lambdify_scalar(e, symbols) for e in exprs)
+        field = cls(
+            comps,
+            name=name,
+            box=box,
+            exprs=exprs,
+            symbols=symbols,
+            params=pvals,
+            linear_matrix=_detect_linear(exprs, symbols),
+            origin=origin,
+            quadrature_n=quadrature_n,
+            closed_form=closed_form,
+            divergence_check=how,
+            tol=tol,
+        )
+        if potentials is not None:
+            for key, pair in _check_potentials_arg(potentials).items():
+                pair = tuple(sp.sympify(p).xreplace(subs) if subs else sp.sympify(p) for p in pair)
+                extra = set().union(*(p.free_symbols for p in pair)) - set(symbols)
+                if extra:
+                    raise ValueError(
+                        f"{key} potentials of {name!r} have free symbols {sorted(map(str, extra))}"
+                    )
+                res = _residual_exprs(exprs, symbols, key, pair)
+                if not all(_symbolic_zero(r, symbols, thr) for r in res):
+                    raise PotentialError(
+                        f"the given {key.upper()} potentials do not reproduce field {name!r}: "
+                        f"{_split_formula(key)} − a = {tuple(sp.simplify(r) for r in res)}"
+                    )
+                fns = tuple(_lambdify_scalar(p, symbols) for p in pair)
+                field._potentials[key] = (fns, pair, "user-supplied")
+        return field
+
+    @classmethod
+    def from_callable(
+        cls,
+        a: Callable[[jax.Array], jax.Array] | Sequence[Scalar],
+        box: Any = _DEFAULT_BOX,
+        name: str = "field",
+        tol: float = 1e-10,
+        potentials: Mapping[str, Sequence[Scalar]] | None = None,
+        *,
+        n_samples: int = 256,
+        seed: int = 0,
+        origin: Sequence[float] = (0.0, 0.0, 0.0),
+        quadrature_n: int = DEFAULT_N,
+    ) -> "Field":
+        """A field from a JAX-traceable callable ``a(x)`` (x of shape (3,) → shape (3,)), or from
+        three scalar callables ``(a1, a2, a3)`` of (x1, x2, x3).
+
+        The divergence is checked by forward-mode autodiff at ``n_samples`` seeded uniform points of
+        ``box``: max |div a| ≤ tol · max |∂a_i/∂x_j| (the natural scale of a derivative), else
+        :class:`NotDivergenceFreeError` with the largest divergence and where.  Potentials are
+        differentiable Gauss–Legendre quadratures unless given as ``{"se": (F1, F3), "dl": (G1, G2)}``
+        (scalar callables), which are then checked at the sample points to the same tolerance.
+        """
+        box = _check_box(box)
+        if callable(a):
+            probe = jax.eval_shape(a, jax.ShapeDtypeStruct((3,), jnp.float64))
+            shape = getattr(probe, "shape", None)
+            if shape != (3,):
+                raise ValueError(
+                    f"the callable a must map a point of shape (3,) to shape (3,); got {shape!r}"
+                )
+
+            def _comp(i):
+                def ai(x1, x2, x3):
+                    return a(jnp.stack(jnp.broadcast_arrays(x1, x2, x3)).astype(float))[i]
+
+                ai.__name__ = f"a{i + 1}"
+                return ai
+
+            comps = tuple(_comp(i) for i in range(3))
+        else:
+            try:
+                comps = tuple(a)
+            except TypeError:
+                raise ValueError("a must be a callable a(x) or three scalar callables") from None
+            if len(comps) != 3 or not all(callable(c) for c in comps):
+                raise ValueError("a must be a callable a(x) or three scalar callables")
+            for i, c in enumerate(comps):
+                s = jnp.float64(0.0)
+                shape = getattr(jax.eval_shape(c, s, s, s), "shape", None)
+                if shape != ():
+                    raise ValueError(f"component a{i + 1} must return a scalar; got shape {shape!r}")
+        field = cls(
+            comps,
+            name=name,
+            box=box,
+            origin=origin,
+            quadrature_n=quadrature_n,
+            closed_form=False,
+            divergence_check="autodiff at sample points",
+            tol=tol,
+            seed=seed,
+            n_samples=n_samples,
+        )
+        pts = jnp.asarray(field.sample_points())
+        J = np.asarray(field.jacobian(pts))
+        if not np.all(np.isfinite(J)):
+            i = int(np.flatnonzero(~np.all(np.isfinite(J.reshape(len(J), -1)), axis=1))[0])
+            raise ValueError(f"field {name!r} has a non-finite Jacobian at x = {_fmt_pt(pts[i])}")
+        div = np.trace(J, axis1=1, axis2=2)
+        scale = max(float(np.max(np.abs(J))), np.finfo(float).tiny)
+        i = int(np.argmax(np.abs(div)))
+        if abs(div[i]) > tol * scale:
+            raise NotDivergenceFreeError(
+                f"field {name!r} is not divergence free: the largest |div a| at {len(pts)} sample "
+                f"points of the box {box} is {abs(div[i]):.6g} at x = {_fmt_pt(pts[i])} "
+                f"(tolerance {tol:g} × max|∂a_i/∂x_j| = {tol * scale:.3g})"
+            )
+        if potentials is not None:
+            a_vals = np.asarray(field(pts))
+            a_scale = max(float(np.max(np.abs(a_vals))), np.finfo(float).tiny)
+            for key, pair in _check_potentials_arg(potentials).items():
+                if not all(callable(p) for p in pair):
+                    raise ValueError(f"{key} potentials must be two scalar callables")
+                field._potentials[key] = (tuple(pair), None, "user-supplied")
+                err, where = _numeric_max(
+                    lambda x: field.reconstruct(x, key) - field(x), np.asarray(pts)
+                )
+                if not err <= tol * a_scale:
+                    del field._potentials[key]
+                    field._recon_fns.pop(key, None)
+                    raise PotentialError(
+                        f"the given {key.upper()} potentials do not reproduce field {name!r}: "
+                        f"max |{_split_formula(key)} − a| = {err:.6g} at x = {_fmt_pt(where)} "
+                        f"(max |a| = {a_scale:.3g})"
+                    )
+        return field
+
+    @classmethod
+    def linear(cls, A: Any, name: str = "linear", box: Any = _DEFAULT_BOX, tol: float = 1e-12) -> "Field":
+        """The linear field a(x) = A x for a traceless 3×3 matrix A (closed-form quadratic potentials).
+
+        |tr A| ≤ tol · max(1, max|A_ij|) is accepted as traceless (rounding); otherwise ValueError.
+        """
+        M = np.asarray(A, dtype=float)
+        if M.shape != (3, 3):
+            raise ValueError(f"A must be a 3×3 matrix; got shape {M.shape}")
+        if not np.all(np.isfinite(M)):
+            raise ValueError("A must be finite")
+        tr = float(np.trace(M))
+        if abs(tr) > tol * max(1.0, float(np.max(np.abs(M)))):
+            raise ValueError(
+                f"a linear field x ↦ A x is divergence free only if tr A = 0; got tr A = {tr!r}"
+            )
+        Ms = sp.Matrix(3, 3, [sp.Float(float(v), 17) if v != 0 else sp.Integer(0) for v in M.ravel()])
+        X = sp.Matrix(SYMBOLS)
+        exprs = tuple(Ms * X)
+        f = cls.from_sympy(exprs, SYMBOLS, name=name, box=box)
+        f.linear_matrix = M.copy()
+        return f
+
+    def __repr__(self) -> str:
+        kind = "sympy" if self.exprs is not None else "callable"
+        return f"Field(name={self.name!r}, {kind}, box={self.box})"
+
+
+# ---------------------------------------------------------------------------------------------
+# potentials
+# ---------------------------------------------------------------------------------------------
+def _check_splitting(splitting: str) -> str:
+    s = str(splitting).lower().replace("+", "").replace("-", "")
+    s = {"sese": "se", "se": "se", "dl": "dl", "dldl": "dl", "sedl": "dl"}.get(s, s)
+    if s not in _SPLITTINGS:
+        raise ValueError(f"splitting must be 'se' (F1, F3) or 'dl' (G1, G2); got {splitting!r}")
+    return s
+
+
+def _split_formula(key: str) -> str:
+    return "vf1(F1) + vf3(F3)" if key == "se" else "vf1(G1) + vf2(G2)"
+
+
+def _check_potentials_arg(potentials: Any) -> dict[str, tuple]:
+    if not isinstance(potentials, Mapping):
+        raise ValueError('potentials must be a dict {"se": (F1, F3), "dl": (G1, G2)}')
+    out = {}
+    for k, pair in potentials.items():
+        key = _check_splitting(k)
+        if isinstance(pair, (str, sp.Basic)) or len(pair) != 2:
+            raise ValueError(f"{k!r} potentials must be a pair; got {pair!r}")
+        out[key] = tuple(pair)
+    return out
+
+
+def _residual_exprs(exprs, symbols, key, pair):
+    P, Q = pair
+    u = vf1_expr(P, symbols)
+    v = vf3_expr(Q, symbols) if key == "se" else vf2_expr(Q, symbols)
+    return tuple(ui + vi - ai for ui, vi, ai in zip(u, v, exprs))
+
+
+def _closed_form_potentials(field: Field, splitting: str):
+    """SymPy closed forms of MATH.md §3, verified symbolically; None if integrate fails."""
+    a1, a2, a3 = field.exprs
+    x1, x2, x3 = field.symbols
+    c1, c2, c3 = (sp.nsimplify(c) for c in field.origin)
+    s, t = sp.Dummy("s", real=True), sp.Dummy("t", real=True)
+
+    def integ(expr, var, dummy, lo):
+        e = sp.expand(expr.xreplace({var: dummy}))
+        r = sp.integrate(e, (dummy, lo, var))
+        if r.has(sp.Integral):
+            raise _NoClosedForm
+        return r
+
+    try:
+        if splitting == "se":
+            Q = integ(a1, x2, s, c2)  # F3
+            P = -integ(a3, x2, s, c2) + integ(a2.xreplace({x2: c2}), x3, t, c3)  # F1
+        else:
+            P = integ(a2, x3, t, c3)  # G1
+            Q = -integ(a1, x3, t, c3) + integ(a3.xreplace({x3: c3}), x1, s, c1)  # G2
+    except _NoClosedForm:
+        return None
+    except Exception:  # SymPy may raise on hard integrands: fall back to quadrature
+        return None
+    pair = (sp.expand(P), sp.expand(Q))
+    if any(p.has(sp.Piecewise) for p in pair):
+        return None
+    thr = 1e-12 * _float_scale(field.exprs)
+    res = _residual_exprs(field.exprs, field.symbols, splitting, pair)
+    if not all(_symbolic_zero(r, field.symbols, thr) for r in res):
+        return None
+    return pair
+
+
+class _NoClosedForm(Exception):
+    pass
+
+
+def _quadrature_potentials(comps, splitting: str, origin, n: int):
+    """Differentiable Gauss–Legendre potentials (MATH.md §3 with base point ``origin``)."""
+    a1, a2, a3 = comps
+    c1, c2, c3 = origin
+
+    if splitting == "se":
+
+        def F3(x1, x2, x3):
+            return line_integral(lambda s: a1(x1, s, x3), c2, x2, n)
+
+        def F1(x1, x2, x3):
+            return -line_integral(lambda s: a3(x1, s, x3), c2, x2, n) + line_integral(
+                lambda t: a2(x1, c2, t), c3, x3, n
+            )
+
+        F1.__name__, F3.__name__ = "F1_quadrature", "F3_quadrature"
+        return F1, F3
+
+    def G1(x1, x2, x3):
+        return line_integral(lambda t: a2(x1, x2, t), c3, x3, n)
+
+    def G2(x1, x2, x3):
+        return -line_integral(lambda t: a1(x1, x2, t), c3, x3, n) + line_integral(
+            lambda s: a3(s, x2, c3), c1, x1, n
+        )
+
+    G1.__name__, G2.__name__ = "G1_quadrature", "G2_quadrature"
+    return G1, G2
+
+
+# ---------------------------------------------------------------------------------------------
+# SymPy helpers
+# ---------------------------------------------------------------------------------------------
+def _param_subs(params, exprs, potentials):
+    if not params:
+        return {}, {}
+    if not isinstance(params, Mapping):
+        raise ValueError("params must be a dict {symbol or name: value}")
+    free = set().union(*(sp.sympify(e).free_symbols for e in exprs))
+    by_name = {str(s): s for s in free}
+    subs, vals = {}, {}
+    for k, v in params.items():
+        sym = k if isinstance(k, sp.Symbol) else by_name.get(str(k), sp.Symbol(str(k)))
+        val = sp.sympify(v)
+        if val.free_symbols:
+            raise ValueError(f"parameter {k} must be a number; got {v!r}")
+        subs[sym] = val
+        vals[str(sym)] = float(val)
+    return subs, vals
+
+
+def _numeric_jac_scale(exprs, symbols, pts) -> float:
+    m = 0.0
+    for e in exprs:
+        for s in symbols:
+            f = sp.lambdify(symbols, sp.diff(e, s), modules="numpy")
+            v = np.broadcast_to(np.asarray(f(*pts.T), dtype=float), (len(pts),))
+            if np.all(np.isfinite(v)):
+                m = max(m, float(np.max(np.abs(v))))
+    return max(m, np.finfo(float).tiny)
+
+
+def _detect_linear(exprs, symbols) -> np.ndarray | None:
+    """A if every component is a homogeneous linear polynomial with numeric coefficients."""
+    A = np.zeros((3, 3))
+    for i, e in enumerate(exprs):
+        e = sp.expand(e)
+        if e == 0:
+            continue
+        if not e.is_polynomial(*symbols):
+            return None
+        poly = sp.Poly(e, *symbols)
+        if poly.total_degree() > 1:
+            return None
+        for j, s in enumerate(symbols):
+            c = poly.coeff_monomial(s)
+            if c.free_symbols:
+                return None
+            A[i, j] = float(c)
+        const = poly.coeff_monomial(1)
+        if const != 0:
+            return None
+    return A
