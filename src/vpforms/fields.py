@@ -224,6 +224,14 @@ def _numeric_max(fn: Callable, pts: np.ndarray) -> tuple[float, np.ndarray]:
     return float(vals[i]), pts[i]
 
 
+def _div_error(msg: str, value: float, where: Any) -> NotDivergenceFreeError:
+    """NotDivergenceFreeError carrying ``max_divergence`` and ``where`` (a (3,) numpy array)."""
+    err = NotDivergenceFreeError(msg)
+    err.max_divergence = float(value)  # type: ignore[attr-defined]
+    err.where = np.asarray(where, dtype=float)  # type: ignore[attr-defined]
+    return err
+
+
 def _fmt_pt(p: Any) -> str:
     return "(" + ", ".join(f"{float(v):.6g}" for v in np.asarray(p)) + ")"
 
@@ -472,10 +480,12 @@ class Field:
             if np.isfinite(vals[i]) and abs(vals[i]) <= tol * jac_scale:
                 how = "numerical"
             else:
-                raise NotDivergenceFreeError(
+                raise _div_error(
                     f"field {name!r} is not divergence free: div a = {sp.simplify(div)} does not "
                     f"simplify to 0; the largest |div a| found at {len(pts)} points of the box "
-                    f"{box} is {abs(vals[i]):.6g} at x = {_fmt_pt(pts[i])}"
+                    f"{box} is {abs(vals[i]):.6g} at x = {_fmt_pt(pts[i])}",
+                    abs(vals[i]),
+                    pts[i],
                 )
 
         comps = tuple(_lambdify_scalar(e, symbols) for e in exprs)
@@ -584,10 +594,12 @@ class Field:
         scale = max(float(np.max(np.abs(J))), np.finfo(float).tiny)
         i = int(np.argmax(np.abs(div)))
         if abs(div[i]) > tol * scale:
-            raise NotDivergenceFreeError(
+            raise _div_error(
                 f"field {name!r} is not divergence free: the largest |div a| at {len(pts)} sample "
                 f"points of the box {box} is {abs(div[i]):.6g} at x = {_fmt_pt(pts[i])} "
-                f"(tolerance {tol:g} × max|∂a_i/∂x_j| = {tol * scale:.3g})"
+                f"(tolerance {tol:g} × max|∂a_i/∂x_j| = {tol * scale:.3g})",
+                abs(div[i]),
+                pts[i],
             )
         if potentials is not None:
             a_vals = np.asarray(field(pts))

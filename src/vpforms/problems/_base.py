@@ -1,0 +1,97 @@
+"""The :class:`Problem` record shared by every test problem."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import sympy as sp
+
+from ..fields import SYMBOLS, Field
+
+__all__ = ["Problem", "invariant_callables", "box_sampler"]
+
+
+@dataclass(frozen=True, eq=False)
+class Problem:
+    """A divergence-free test problem x' = a(x).
+
+    Attributes
+    ----------
+    name:
+        registry name (``vpforms.problems.get(name)``).
+    field:
+        the :class:`~vpforms.fields.Field`.
+    params:
+        the parameter values used (name → float).
+    x0:
+        default initial conditions, shape (N, 3).
+    invariants:
+        name → JAX scalar callable of a point x of shape (3,) (vmap it for batches).
+    invariant_exprs:
+        name → SymPy expression in :data:`vpforms.fields.SYMBOLS`.
+    source:
+        citation string.
+    periodic:
+        periods per axis (None for a non-periodic axis), or None if nothing is periodic.
+    box:
+        a sensible bounding box ((lo, hi),)*3 for sampling and plots.
+    description:
+        one line.
+    """
+
+    name: str
+    field: Field
+    params: Mapping[str, Any]
+    x0: np.ndarray
+    invariants: Mapping[str, Callable[[Any], Any]]
+    invariant_exprs: Mapping[str, Any]
+    source: str
+    periodic: tuple | None
+    box: tuple
+    description: str = ""
+    sampler: Callable[[np.random.Generator, int], np.ndarray] | None = field(
+        default=None, repr=False
+    )
+
+    def initial_conditions(self, n: int, seed: int = 0) -> np.ndarray:
+        """n seeded initial conditions in the problem's natural region, shape (n, 3)."""
+        if not isinstance(n, (int, np.integer)) or n < 0:
+            raise ValueError(f"n must be a non-negative integer; got {n!r}")
+        rng = np.random.default_rng(seed)
+        if self.sampler is not None:
+            return np.asarray(self.sampler(rng, int(n)), dtype=float).reshape(int(n), 3)
+        b = np.asarray(self.box, dtype=float)
+        return b[:, 0] + (b[:, 1] - b[:, 0]) * rng.random((int(n), 3))
+
+    def invariant_values(self, x: Any) -> dict[str, jax.Array]:
+        """Every invariant at x of shape (3,) or (N, 3)."""
+        x = jnp.asarray(x, dtype=float)
+        out = {}
+        for k, f in self.invariants.items():
+            out[k] = f(x) if x.ndim == 1 else jax.vmap(f)(x.reshape(-1, 3)).reshape(x.shape[:-1])
+        return out
+
+
+def invariant_callables(exprs: Mapping[str, Any], symbols=SYMBOLS) -> dict[str, Callable]:
+    """SymPy invariants → JAX callables of a point x of shape (3,)."""
+    out = {}
+    for k, e in exprs.items():
+        f = sp.lambdify(tuple(symbols), e, modules="jax")
+
+        def inv(x, _f=f):
+            x = jnp.asarray(x, dtype=float)
+            return jnp.asarray(_f(x[0], x[1], x[2]), dtype=float) + jnp.zeros_like(x[0])
+
+        inv.__name__ = k
+        out[k] = inv
+    return out
+
+
+def box_sampler(box) -> Callable[[np.random.Generator, int], np.ndarray]:
+    b = np.asarray(box, dtype=float)
+    return lambda rng, n: b[:, 0] + (b[:, 1] - b[:, 0]) * rng.random((n, 3))

@@ -1,0 +1,120 @@
+"""A toroidal magnetic-field-line model with magnetic islands (field lines x' = B(x)).
+
+Cartesian x = (x₁, x₂, x₃), R² = x₁² + x₂², the major axis is the x₃ axis, φ the toroidal angle.
+
+    B = B_pol + B_tor + ε ∇×(χ (−x₂, x₁, 0)),
+    B_pol = (−x₁x₃, −x₂x₃, (R² − R₀²)/2 + x₃²)          = ∇ψ × ∇φ,
+    ψ     = (R² − R₀²)²/8 + R²x₃²/2                       (Solov'ev-type flux function),
+    B_tor = (B₀/R₀)(−x₂, x₁, 0),
+    χ     = Re[w^m (x₁ − i x₂)^n] / R₀ⁿ,   w = (R² − R₀²)/(2R₀) + i x₃  (≈ ρ e^{iθ} near the axis).
+
+* B_pol is the poloidal field of the Solov'ev flux function ψ (L. S. Solov'ev, Sov. Phys. JETP 26
+  (1968) 400; the standard analytic tokamak equilibrium), written so that it is a polynomial:
+  nested flux surfaces ψ = const around the magnetic axis R = R₀, x₃ = 0, closed for
+  ψ < R₀⁴/8 (the midplane separatrix is at R = √2 R₀).
+* B_tor is a toroidal field ∝ R (a rigid-rotation profile) instead of the physical ∝ 1/R, so that
+  the whole field is a polynomial, smooth everywhere including the axis R = 0.  div B_tor = 0.
+  Near the magnetic axis the safety factor is q₀ = B₀/R₀²; q increases outwards and diverges at
+  the separatrix (the poloidal motion is independent of B₀, so q(ψ) ∝ B₀ exactly).
+* The perturbation is a helical (m, n) change of poloidal flux, δψ = ε R²χ ∝ ρ^m cos(mθ − nφ);
+  as a curl it is divergence free identically.  It is resonant on the surface q = m/n and
+  opens a chain of m magnetic islands there.  Defaults: R₀ = 1, B₀ = 1.8, (m, n) = (2, 1),
+  ε = 0.01 (q = 2 at ρ ≈ 0.3 in the outer midplane).
+
+div B = 0 identically in Cartesian coordinates (checked symbolically by :class:`vpforms.Field`);
+all potentials are polynomial closed forms.  The model is this library's own construction in the
+usual flux-function form B = ∇ψ×∇φ + B_tor + δB of tokamak field-line studies.
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+import numpy as np
+import sympy as sp
+
+from ..fields import SYMBOLS, Field
+from ._base import Problem, invariant_callables
+
+__all__ = ["make", "default", "DEFAULTS", "flux_function"]
+
+DEFAULTS = {"R0": sp.Integer(1), "B0": sp.Rational(9, 5), "eps": sp.Rational(1, 100), "m": 2, "n": 1}
+SOURCE = (
+    "Solov'ev flux function (L. S. Solov'ev, Sov. Phys. JETP 26 (1968) 400) with a polynomial "
+    "toroidal field and a helical (m, n) flux perturbation; model constructed in vpforms"
+)
+
+
+def flux_function(R0, symbols=SYMBOLS):
+    """The unperturbed poloidal flux ψ (an invariant of the field lines when ε = 0)."""
+    x1, x2, x3 = symbols
+    R2 = x1**2 + x2**2
+    return (R2 - R0**2) ** 2 / 8 + R2 * x3**2 / 2
+
+
+def exprs(R0, B0, eps, m, n, symbols=SYMBOLS):
+    x1, x2, x3 = symbols
+    R2 = x1**2 + x2**2
+    Bpol = (-x1 * x3, -x2 * x3, (R2 - R0**2) / 2 + x3**2)
+    Btor = (-B0 / R0 * x2, B0 / R0 * x1, 0)
+    w = (R2 - R0**2) / (2 * R0) + sp.I * x3
+    chi = sp.re(sp.expand(w**m * (x1 - sp.I * x2) ** n)) / R0**n
+    chi = sp.expand(chi)
+    A = (-chi * x2, chi * x1, sp.Integer(0))
+    curlA = (
+        sp.diff(A[2], x2) - sp.diff(A[1], x3),
+        sp.diff(A[0], x3) - sp.diff(A[2], x1),
+        sp.diff(A[1], x1) - sp.diff(A[0], x2),
+    )
+    return tuple(sp.expand(p + t + eps * c) for p, t, c in zip(Bpol, Btor, curlA))
+
+
+def make(R0=None, B0=None, eps=None, m=None, n=None) -> Problem:
+    """The field-line model; see the module docstring for the parameters."""
+    p = dict(DEFAULTS)
+    p.update({k: v for k, v in dict(R0=R0, B0=B0, eps=eps, m=m, n=n).items() if v is not None})
+    R0, B0, eps = (sp.sympify(p[k]) for k in ("R0", "B0", "eps"))
+    m, n = p["m"], p["n"]
+    if not (isinstance(m, (int, np.integer)) and isinstance(n, (int, np.integer)) and m >= 1 and n >= 0):
+        raise ValueError(f"mode numbers must be integers m ≥ 1, n ≥ 0; got m={m!r}, n={n!r}")
+    for k, v in (("R0", R0), ("B0", B0), ("eps", eps)):
+        if v.free_symbols or not v.is_real:
+            raise ValueError(f"parameter {k} must be a real number; got {v}")
+    if not R0 > 0:
+        raise ValueError(f"R0 must be positive; got {R0}")
+    r0 = float(R0)
+    box = ((-1.5 * r0, 1.5 * r0), (-1.5 * r0, 1.5 * r0), (-0.75 * r0, 0.75 * r0))
+    field = Field.from_sympy(exprs(R0, B0, eps, int(m), int(n)), SYMBOLS, name="tokamak", box=box)
+    inv = {}
+    if eps == 0:
+        x1, x2, x3 = SYMBOLS
+        inv["psi"] = flux_function(R0)
+    rho = np.array([0.1, 0.2, 0.25, 0.3, 0.35]) * r0
+    x0 = np.stack([r0 + rho, np.zeros_like(rho), np.zeros_like(rho)], axis=1)
+
+    def sampler(rng, k):  # inside the flux surfaces: ρ ≤ 0.35 R₀ around the magnetic axis
+        rr = 0.35 * r0 * np.sqrt(rng.random(k))
+        th = 2 * np.pi * rng.random(k)
+        ph = 2 * np.pi * rng.random(k)
+        R = r0 + rr * np.cos(th)
+        return np.stack([R * np.cos(ph), R * np.sin(ph), rr * np.sin(th)], axis=1)
+
+    params = {"R0": r0, "B0": float(B0), "eps": float(eps), "m": int(m), "n": int(n)}
+    return Problem(
+        name="tokamak",
+        field=field,
+        params=params,
+        x0=x0,
+        invariants=invariant_callables(inv),
+        invariant_exprs=inv,
+        source=SOURCE,
+        periodic=None,
+        box=box,
+        description=f"toroidal field-line model with ({m},{n}) islands",
+        sampler=sampler,
+    )
+
+
+@lru_cache(maxsize=1)
+def default() -> Problem:
+    return make()
