@@ -1,7 +1,7 @@
 """A linear traceless field a(x) = A x.
 
 Given a matrix (checked traceless, :meth:`vpforms.Field.linear`) or a random one: a seeded
-standard-normal 3×3 matrix with its trace removed (A₃₃ := −A₁₁ − A₂₂).  Linear fields are the
+standard-normal 3×3 matrix with its trace removed (A₃₃ := −A₁₁ − A₂₂, exactly).  Linear fields are the
 only ones for which the paper gives S1/S2 generating functions (eq:S1, eq:S2, MATH.md §4); a
 random matrix has a₁₂, a₁₃ ≠ 0 almost surely, as those recipes need.  The flow is exp(tA), which
 gives an exact reference solution.  Potentials are quadratic closed forms.  There is no invariant
@@ -25,10 +25,12 @@ SOURCE = "Verdier, Xue, Zanna, arXiv 1412.6345, Sec. 5 (linear vector fields a =
 
 
 def random_traceless(seed: int = 0, scale: float = 1.0) -> np.ndarray:
-    """A seeded random 3×3 matrix with tr = 0 (standard normal entries times ``scale``)."""
+    """A seeded random 3×3 matrix with tr A = 0 exactly (standard normal entries times ``scale``,
+    rounded to multiples of 2⁻³⁰)."""
     rng = np.random.default_rng(seed)
-    A = scale * rng.standard_normal((3, 3))
-    A[2, 2] = -A[0, 0] - A[1, 1]
+    # entries on the dyadic grid 2⁻³⁰ so that the trace is exactly 0 in binary floating point
+    A = np.round(scale * rng.standard_normal((3, 3)) * 2.0**30) / 2.0**30
+    A[2, 2] = -(A[0, 0] + A[1, 1])
     return A
 
 
