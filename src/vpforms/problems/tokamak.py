@@ -19,7 +19,10 @@ Cartesian x = (x₁, x₂, x₃), R² = x₁² + x₂², the major axis is the x
 * The perturbation is a helical (m, n) change of poloidal flux, δψ = ε R²χ ∝ ρ^m cos(mθ − nφ);
   as a curl it is divergence free identically.  It is resonant on the surface q = m/n and
   opens a chain of m magnetic islands there.  Defaults: R₀ = 1, B₀ = 1.8, (m, n) = (2, 1),
-  ε = 0.01 (q = 2 at ρ ≈ 0.3 in the outer midplane).
+  ε = 0.01.  Field-line tracing of the unperturbed field (scipy, during development) gives
+  q ≈ 1.80, 1.87, 2.02, 2.75 at ρ = 0.05, 0.2, 0.3, 0.4 in the outer midplane, and a Poincaré
+  section x₂ = 0 of the default field shows the two m = 2 islands with O-points near R ≈ 1.29
+  and R ≈ 0.56 (x₃ = 0), each roughly 0.1–0.15 R₀ wide, between intact flux surfaces.
 
 div B = 0 identically in Cartesian coordinates (checked symbolically by :class:`vpforms.Field`);
 all potentials are polynomial closed forms.  The model is this library's own construction in the
