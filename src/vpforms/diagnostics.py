@@ -1,0 +1,563 @@
+"""Diagnostics along trajectories: volume (log |det J|), invariants, observed order, Poincaré sections.
+
+Every function takes a *method* — anything with ``step_with_status(x, h) -> (X, status)`` for x of
+shape (3,) — and works in float64 under ``jit``/``vmap``.
+
+* :func:`log_det` — per-step and accumulated log |det DΨ_h| along trajectories, the Jacobian by
+  forward-mode AD through the step (exact IFT derivatives through the Newton solves), never by
+  finite differences.  log |det D(Ψ_h^n)| = Σ_k log |det DΨ_h(x_k)| by the chain rule.
+* :func:`invariant_drift` — I(x(t)) − I(x(0)) for named invariants (a Problem's ``invariants``).
+* :func:`step_size_errors`, :func:`fit_order`, :func:`observed_order` — errors at time T for a
+  step-size sweep and a plateau-aware log–log fit of the slope.
+* :func:`poincare_section` — *non-terminating* crossings of a plane x_axis = value (optionally
+  modulo a period), detected on the fly inside the scan and then located on the method's own
+  continuous step family θ ↦ Ψ_{θh}(x_n), θ ∈ [0, 1] (see its docstring for the order).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import partial
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jax import lax
+
+from . import _config  # noqa: F401
+from ._errors import RESULTS
+from .integrate import _Bar, _StepFn, auto_chunk_size, integrate
+
+__all__ = [
+    "LogDet",
+    "log_det",
+    "invariant_drift",
+    "step_size_errors",
+    "reference_solution",
+    "OrderFit",
+    "fit_order",
+    "observed_order",
+    "PoincareSection",
+    "poincare_section",
+]
+
+
+def _points(x0: Any) -> tuple[np.ndarray, bool]:
+    x0 = np.asarray(x0, dtype=np.float64)
+    if x0.ndim not in (1, 2) or x0.shape[-1] != 3:
+        raise ValueError(f"x0 must have shape (3,) or (N, 3); got {x0.shape}")
+    return x0.reshape(-1, 3), x0.ndim == 1
+
+
+def _chunks(N: int, C: int):
+    for lo in range(0, N, C):
+        yield lo, min(lo + C, N)
+
+
+def _pad(block: np.ndarray, C: int) -> np.ndarray:
+    if block.shape[0] == C:
+        return block
+    return np.concatenate([block, np.repeat(block[-1:], C - block.shape[0], axis=0)])
+
+
+# --------------------------------------------------------------------------------------------
+# Volume: log |det J| along trajectories
+# --------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class LogDet:
+    """Per-step and accumulated log |det J| along trajectories.
+
+    ``per_step[..., n]`` = log |det DΨ_h(x_n)|, shape (N, n_steps) (or (n_steps,));
+    ``accumulated[..., n]`` = log |det D(Ψ_h^n)(x_0)| = Σ_{k<n} per_step[k], shape (N, n_steps + 1);
+    ``ts`` the times of ``accumulated``; ``status`` the per-particle first-failure code (a failed
+    particle is frozen and contributes 0 from its failure on).
+    """
+
+    ts: np.ndarray
+    per_step: np.ndarray
+    accumulated: np.ndarray
+    status: np.ndarray
+    method: str
+
+    @property
+    def max_abs(self) -> float:
+        """max over particles and times of |log det D(Ψ_h^n)| (0 for an exactly VP method)."""
+        return float(np.max(np.abs(self.accumulated))) if self.accumulated.size else 0.0
+
+
+@partial(jax.jit, static_argnums=(0, 1))
+def _logdet_kernel(step_fn, n_steps, x, h):
+    def one(x):
+        def body(carry, _):
+            x, st, acc = carry
+            J, (X, s) = jax.jacfwd(lambda z: (step_fn(z, h)[0], step_fn(z, h)), has_aux=True)(x)
+            _, ld = jnp.linalg.slogdet(J)  # log |det J|, forward-mode J (exact through the solves)
+            good = (st == RESULTS.successful) & (s == RESULTS.successful) & jnp.isfinite(ld)
+            ld = jnp.where(good, ld, 0.0)
+            st = jnp.where((st == RESULTS.successful) & ~good, jnp.maximum(s, 1), st)
+            x = jnp.where(good, X, x)
+            return (x, st, acc + ld), ld
+
+        (x, st, _), lds = lax.scan(body, (x, jnp.int32(0), jnp.float64(0.0)), None, length=n_steps)
+        return lds, st
+
+    return jax.vmap(one)(x)
+
+
+def log_det(
+    method: Any,
+    x0: Any,
+    h: float,
+    n_steps: int,
+    t0: float = 0.0,
+    chunk_size: int | None = None,
+) -> LogDet:
+    """log |det DΨ_h| per step and accumulated along the trajectories of ``method`` from x0.
+
+    The Jacobian of each step is ``jax.jacfwd`` of ``step_with_status(·, h)[0]`` at the current
+    point: exact derivatives, so an exactly volume-preserving method shows rounding-level values
+    (≈1e-16 per step) and a non-VP method (RK4) its true volume error.
+    """
+    pts, single = _points(x0)
+    N = pts.shape[0]
+    C = min(N, chunk_size or auto_chunk_size(N, n_steps))
+    per = np.empty((N, n_steps))
+    status = np.empty(N, dtype=np.int32)
+    fn = _StepFn(method)
+    for lo, hi in _chunks(N, C):
+        lds, st = _logdet_kernel(fn, int(n_steps), jnp.asarray(_pad(pts[lo:hi], C)), jnp.asarray(h))
+        per[lo:hi] = np.asarray(lds)[: hi - lo]
+        status[lo:hi] = np.asarray(st)[: hi - lo]
+    acc = np.concatenate([np.zeros((N, 1)), np.cumsum(per, axis=1)], axis=1)
+    ts = t0 + h * np.arange(n_steps + 1)
+    from .integrate import describe
+
+    if single:
+        return LogDet(ts, per[0], acc[0], status[0], describe(method))
+    return LogDet(ts, per, acc, status, describe(method))
+
+
+# --------------------------------------------------------------------------------------------
+# Invariants
+# --------------------------------------------------------------------------------------------
+def invariant_drift(invariants: dict[str, Any], xs: Any, relative: bool = False) -> dict[str, np.ndarray]:
+    """I(x_t) − I(x_0) for each named invariant, for saved states xs of shape (S, 3) or (N, S, 3).
+
+    ``invariants`` maps a name to a JAX scalar callable of x (3,) (a Problem's ``invariants``);
+    ``xs`` may also be a :class:`vpforms.integrate.Solution`.  With ``relative=True`` the drift
+    is divided by max(|I(x_0)|, 1e-300).  Returns name → array of the shape of xs without the
+    last axis.
+    """
+    xs = np.asarray(getattr(xs, "xs", xs), dtype=np.float64)
+    if xs.ndim < 2 or xs.shape[-1] != 3:
+        raise ValueError(f"xs must have shape (S, 3) or (N, S, 3); got {xs.shape}")
+    flat = jnp.asarray(xs.reshape(-1, 3))
+    out = {}
+    for name, fn in invariants.items():
+        vals = np.asarray(jax.jit(jax.vmap(fn))(flat)).reshape(xs.shape[:-1])
+        d = vals - vals[..., :1]
+        if relative:
+            d = d / np.maximum(np.abs(vals[..., :1]), 1e-300)
+        out[name] = d
+    return out
+
+
+# --------------------------------------------------------------------------------------------
+# Observed order
+# --------------------------------------------------------------------------------------------
+def reference_solution(field: Any, x0: Any, T: float, rtol: float = 1e-13, atol: float = 1e-13) -> np.ndarray:
+    """x(T) from x0 for x' = a(x), as the truth for an order study.
+
+    Exact ``expm(T A) x0`` when ``field.linear_matrix`` is a matrix; otherwise SciPy's DOP853 on the
+    stacked system (all particles at once) with tight tolerances, the field evaluated by JAX.
+    """
+    pts, single = _points(x0)
+    A = getattr(field, "linear_matrix", None)
+    if A is not None:
+        from scipy.linalg import expm
+
+        out = pts @ expm(T * np.asarray(A, dtype=np.float64)).T
+    else:
+        from scipy.integrate import solve_ivp
+
+        f = jax.jit(jax.vmap(lambda p: jnp.asarray(field(p))))
+
+        def rhs(_t, y):
+            return np.asarray(f(jnp.asarray(y.reshape(-1, 3)))).reshape(-1)
+
+        sol = solve_ivp(rhs, (0.0, T), pts.reshape(-1), method="DOP853", rtol=rtol, atol=atol)
+        if not sol.success:
+            raise RuntimeError(f"reference solution failed: {sol.message}")
+        out = sol.y[:, -1].reshape(-1, 3)
+    return out[0] if single else out
+
+
+def step_size_errors(method: Any, x0: Any, T: float, hs: Any, reference: Any) -> np.ndarray:
+    """max over particles of |x_n − x(T)|_∞ with n = T/h, for each h in hs.
+
+    Each T/h must be (within 1e-9) an integer. ``reference`` is x(T), shape like x0.  A failed
+    particle makes that h's error ``inf``.
+    """
+    ref = np.asarray(reference, dtype=np.float64)
+    errs = []
+    for h in np.asarray(hs, dtype=np.float64):
+        n = T / h
+        if abs(n - round(n)) > 1e-9 * max(1.0, n):
+            raise ValueError(f"T/h must be an integer; T={T}, h={h}")
+        sol = integrate(method, x0, h, int(round(n)), progress=False)
+        if not sol.ok:
+            errs.append(np.inf)
+            continue
+        errs.append(float(np.max(np.abs(sol.x_final - ref))))
+    return np.asarray(errs)
+
+
+@dataclass(frozen=True)
+class OrderFit:
+    """A log–log fit err ≈ c·h^order over the points ``used`` (a boolean mask over hs)."""
+
+    order: float
+    log10_c: float
+    hs: np.ndarray
+    errors: np.ndarray
+    used: np.ndarray
+    local_slopes: np.ndarray
+
+    def predict(self, h: Any) -> np.ndarray:
+        return 10.0 ** (self.log10_c + self.order * np.log10(np.asarray(h, dtype=np.float64)))
+
+
+def fit_order(hs: Any, errors: Any, floor: float | None = None, tol: float = 0.15) -> OrderFit:
+    """Plateau-aware least-squares slope of log10(err) against log10(h).
+
+    Points at or below the round-off ``floor`` (default 1e3·eps·max(1, max err)) or non-finite are
+    dropped: they sit on the rounding plateau.  Among the remaining points (sorted by h) the fit uses
+    the longest run of consecutive points that a straight line fits within ``tol`` decades, preferring
+    the run at the smallest h on ties (the asymptotic regime).  At least two points are needed.
+    """
+    hs = np.asarray(hs, dtype=np.float64)
+    errors = np.asarray(errors, dtype=np.float64)
+    order_idx = np.argsort(hs)
+    hs_s, er_s = hs[order_idx], errors[order_idx]
+    finite = np.isfinite(er_s) & (er_s > 0)
+    if floor is None:
+        scale = max(1.0, float(np.max(er_s[finite]))) if finite.any() else 1.0
+        floor = 1e3 * np.finfo(float).eps * scale
+    ok = finite & (er_s > floor)
+    idx = np.flatnonzero(ok)
+    lh, le = np.log10(hs_s), np.log10(np.where(finite, er_s, 1.0))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        local = np.diff(le) / np.diff(lh)
+    local = np.where(finite[1:] & finite[:-1], local, np.nan)
+    if idx.size < 2:
+        raise ValueError("fit_order needs at least two errors above the round-off floor")
+
+    best = None
+    # runs of consecutive usable points (consecutive in the sorted sweep)
+    runs, cur = [], [idx[0]]
+    for i in idx[1:]:
+        if i == cur[-1] + 1:
+            cur.append(i)
+        else:
+            runs.append(cur)
+            cur = [i]
+    runs.append(cur)
+    for run in runs:
+        for a in range(len(run)):
+            for b in range(a + 2, len(run) + 1):
+                sel = np.array(run[a:b])
+                p, c = np.polyfit(lh[sel], le[sel], 1)
+                resid = np.max(np.abs(le[sel] - (p * lh[sel] + c)))
+                if resid <= tol:
+                    key = (len(sel), -lh[sel[0]])
+                    if best is None or key > best[0]:
+                        best = (key, sel, p, c)
+    if best is None:  # no straight run: use the two smallest-h usable points
+        sel = idx[:2]
+        p, c = np.polyfit(lh[sel], le[sel], 1)
+        best = (None, sel, p, c)
+    _, sel, p, c = best
+    used_sorted = np.zeros(hs.size, dtype=bool)
+    used_sorted[sel] = True
+    used = np.empty_like(used_sorted)
+    used[order_idx] = used_sorted
+    local_full = np.full(hs.size - 1, np.nan)
+    local_full[: local.size] = local
+    return OrderFit(float(p), float(c), hs_s, er_s, used_sorted, local_full)
+
+
+def observed_order(method: Any, x0: Any, T: float, hs: Any, reference: Any = None, field: Any = None) -> OrderFit:
+    """Errors at time T for the step sizes hs and their plateau-aware fit (:func:`fit_order`).
+
+    ``reference`` is x(T); if omitted it is computed by :func:`reference_solution` from ``field``
+    (default ``method.field``).
+    """
+    if reference is None:
+        field = field if field is not None else getattr(method, "field", None)
+        if field is None:
+            raise ValueError("observed_order needs reference=x(T) or a field to compute it")
+        reference = reference_solution(field, x0, T)
+    errs = step_size_errors(method, x0, T, hs, reference)
+    return fit_order(hs, errs)
+
+
+# --------------------------------------------------------------------------------------------
+# Poincaré sections
+# --------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class PoincareSection:
+    """Crossings of the plane x_axis = value (+ k·period) in the chosen direction.
+
+    ``points`` (M, 3) the crossing points (lifted coordinates: not reduced modulo the period);
+    ``particle`` (M,) the particle index; ``step`` (M,) the step n with the crossing in
+    [t_n, t_{n+1}]; ``theta`` (M,) its fraction of the step; ``t`` (M,) the crossing time
+    t0 + (n + θ)h; ``counts`` (N,) crossings per particle (including ``dropped`` ones beyond
+    ``max_crossings``); ``interpolation`` and ``interpolation_order`` say how they were located.
+    """
+
+    points: np.ndarray
+    particle: np.ndarray
+    step: np.ndarray
+    theta: np.ndarray
+    t: np.ndarray
+    counts: np.ndarray
+    dropped: int
+    axis: int
+    value: float
+    direction: int
+    period: float | None
+    interpolation: str
+    interpolation_order: str
+    method: str
+    status: np.ndarray
+
+    @property
+    def plane_axes(self) -> tuple[int, int]:
+        """The two in-plane coordinates (0-based), in increasing order."""
+        a, b = [i for i in range(3) if i != self.axis]
+        return a, b
+
+    def coordinates(self, wrap: bool | None = None) -> np.ndarray:
+        """(M, 2) in-plane coordinates; reduced to [0, period) when wrap (default: period given)."""
+        a, b = self.plane_axes
+        uv = self.points[:, [a, b]]
+        if (self.period is not None) if wrap is None else wrap:
+            uv = np.mod(uv, self.period)
+        return uv
+
+    def to_csv(self, path: str) -> None:
+        """Write particle, step, theta, t, x1, x2, x3 (lifted) and the two in-plane coordinates."""
+        a, b = self.plane_axes
+        uv = self.coordinates()
+        header = f"particle,step,theta,t,x1,x2,x3,u_x{a + 1},v_x{b + 1}"
+        data = np.column_stack([self.particle, self.step, self.theta, self.t, self.points, uv])
+        fmt = ["%d", "%d", "%.17g", "%.17g"] + ["%.17g"] * 5
+        np.savetxt(path, data, delimiter=",", header=header, comments="", fmt=fmt)
+
+
+def _levels(s, P):
+    """Integer level index of a plane coordinate s = x_axis − value (floor(s/P), or s ≥ 0)."""
+    return jnp.floor(s / P) if P is not None else (s >= 0).astype(jnp.float64)
+
+
+@partial(jax.jit, static_argnums=(0, 1, 2, 3, 4, 5))
+def _poincare_scan(step_fn, n_steps, K, axis, direction, P, x, st, count, bx, bn, bl, n0, h, value):
+    """Scan n_steps steps; record x_n, n and the crossed level for each particle's first K crossings."""
+
+    def one(x, st, count, bx, bn, bl):
+        def body(carry, j):
+            x, st, count, bx, bn, bl = carry
+            n = (n0 + j).astype(jnp.int32)
+            X, s = step_fn(x, h)
+            alive = st == RESULTS.successful
+            good = alive & (s == RESULTS.successful)
+            st = jnp.where(alive & ~good, s, st)
+            m0 = _levels(x[axis] - value, P)
+            m1 = _levels(X[axis] - value, P)
+            up, down = (m1 > m0), (m1 < m0)
+            cross = good & (up if direction > 0 else down if direction < 0 else up | down)
+            # crossed level: value + m1·P going up, value + m0·P going down (one per step)
+            lvl = value + (0.0 if P is None else P) * jnp.where(up, m1, m0)
+            i = jnp.minimum(count, K - 1)
+            w = cross & (count < K)
+            bx = bx.at[i].set(jnp.where(w, x, bx[i]))
+            bn = bn.at[i].set(jnp.where(w, n, bn[i]))
+            bl = bl.at[i].set(jnp.where(w, lvl, bl[i]))
+            count = count + cross.astype(count.dtype)
+            x = jnp.where(good, X, x)
+            return (x, st, count, bx, bn, bl), None
+
+        carry, _ = lax.scan(body, (x, st, count, bx, bn, bl), jnp.arange(n_steps))
+        return carry
+
+    return jax.vmap(one)(x, st, count, bx, bn, bl)
+
+
+@partial(jax.jit, static_argnums=(0, 1, 2))
+def _refine_kernel(step_fn, axis, mode, x, lvl, h):
+    """Locate θ ∈ [0, 1] with (Ψ_{θh}(x))_axis = lvl by Illinois regula falsi; return (X, θ)."""
+
+    def one(x, lvl):
+        X1, _ = step_fn(x, h)
+        g0 = x[axis] - lvl
+        g1 = X1[axis] - lvl
+        th_lin = g0 / (g0 - g1)
+        if mode == "linear":  # chord of the step: O(h²) accurate
+            return x + th_lin * (X1 - x), th_lin
+
+        def g(th):
+            Y, s = step_fn(x, th * h)
+            return Y[axis] - lvl, Y, s
+
+        tol = 1e-15 * (1.0 + jnp.abs(lvl))
+
+        def cond(c):
+            a, fa, b, fb, it, done = c
+            return (~done) & (it < 60)
+
+        def body(c):
+            a, fa, b, fb, it, _ = c
+            th = (a * fb - b * fa) / (fb - fa)
+            th = jnp.clip(th, jnp.minimum(a, b), jnp.maximum(a, b))
+            ft, _, _ = g(th)
+            same = jnp.sign(ft) == jnp.sign(fb)
+            # Illinois: halve the retained end's value when the same end is kept twice
+            a2, fa2 = jnp.where(same, a, b), jnp.where(same, fa * 0.5, fb)
+            done = (jnp.abs(ft) <= tol) | (jnp.abs(b - a) <= 1e-15)
+            return a2, fa2, th, ft, it + 1, done
+
+        a, fa, b, fb, it, _ = lax.while_loop(cond, body, (0.0, g0, 1.0, g1, 0, False))
+        th = jnp.where(jnp.abs(fa) < jnp.abs(fb), a, b)
+        _, Y, s = g(th)
+        ok = (s == RESULTS.successful) & jnp.all(jnp.isfinite(Y))
+        Y = jnp.where(ok, Y, x + th_lin * (X1 - x))
+        return Y.at[axis].set(jnp.where(ok, lvl, Y[axis])), jnp.where(ok, th, th_lin)
+
+    return jax.vmap(one)(x, lvl)
+
+
+def poincare_section(
+    method: Any,
+    x0: Any,
+    h: float,
+    n_steps: int,
+    axis: int = 2,
+    value: float = 0.0,
+    direction: int = 1,
+    period: float | None = None,
+    max_crossings: int | None = None,
+    interpolation: str = "step",
+    t0: float = 0.0,
+    chunk_size: int | None = None,
+    progress: bool | str = "auto",
+) -> PoincareSection:
+    """Non-terminating crossings of the plane x_axis = value (+ k·period) by the particles' orbits.
+
+    Parameters
+    ----------
+    axis:
+        0-based coordinate normal to the plane (0, 1, 2 for x₁, x₂, x₃).
+    value, period:
+        The plane is x_axis = value; with ``period`` P (e.g. 2π for the ABC flow) every plane
+        x_axis = value + kP counts (the orbit is not wrapped; its crossings are).
+    direction:
+        +1 counts crossings with x_axis increasing, −1 decreasing, 0 both.
+    max_crossings:
+        Buffer per particle (default n_steps // 4 + 8); extra crossings are counted as ``dropped``.
+    interpolation:
+        How a crossing inside the step x_n → x_{n+1} = Ψ_h(x_n) is located:
+
+        * ``"step"`` (default): the method's own continuous family θ ↦ Ψ_{θh}(x_n), θ ∈ [0, 1],
+          solved for (Ψ_{θh}(x_n))_axis = level by Illinois regula falsi (bracketed, to 1e-15).
+          The point is one step of the method of size θh, so its error is the method's local error
+          O(h^{p+1}) — interpolation of order p for a method of order p — and it lies on the plane.
+        * ``"linear"``: the chord x_n + θ(x_{n+1} − x_n), interpolation order 1 (error O(h²)).
+
+    The detection runs inside the ``lax.scan`` of the orbit (memory O(N · max_crossings)); the
+    location runs afterwards, batched over all crossings.
+    """
+    if axis not in (0, 1, 2):
+        raise ValueError(f"axis must be 0, 1 or 2 (0-based), got {axis}")
+    if direction not in (-1, 0, 1):
+        raise ValueError(f"direction must be -1, 0 or +1, got {direction}")
+    if interpolation not in ("step", "linear"):
+        raise ValueError(f"interpolation must be 'step' or 'linear', got {interpolation!r}")
+    if period is not None and not (period > 0 and math.isfinite(period)):
+        raise ValueError(f"period must be a positive number, got {period}")
+    pts, _ = _points(x0)
+    N = pts.shape[0]
+    n_steps = int(n_steps)
+    K = int(max_crossings) if max_crossings is not None else n_steps // 4 + 8
+    C = min(N, chunk_size or auto_chunk_size(N, 2 * K))
+    seg = max(1, min(n_steps, -(-n_steps // 20)))  # ~20 compiled calls per chunk: a live bar
+    n_seg = -(-n_steps // seg)
+    fn = _StepFn(method)
+    P = None if period is None else float(period)
+    hj, vj = jnp.asarray(float(h)), jnp.asarray(float(value))
+
+    cx, cn, cl, cp = [], [], [], []
+    counts = np.zeros(N, dtype=np.int64)
+    status = np.zeros(N, dtype=np.int32)
+    bar = _Bar(progress, N * n_steps, "Poincaré section")
+    try:
+        for lo, hi in _chunks(N, C):
+            x = jnp.asarray(_pad(pts[lo:hi], C))
+            st = jnp.zeros(C, jnp.int32)
+            cnt = jnp.zeros(C, jnp.int32)
+            bx, bn, bl = jnp.zeros((C, K, 3)), jnp.zeros((C, K), jnp.int32), jnp.zeros((C, K))
+            done = 0
+            while done < n_steps:
+                # the last segment is shorter only if seg does not divide n_steps (one more compile)
+                L = min(seg, n_steps - done)
+                x, st, cnt, bx, bn, bl = _poincare_scan(
+                    fn, L, K, axis, direction, P, x, st, cnt, bx, bn, bl, jnp.asarray(done), hj, vj
+                )
+                done += L
+                bar.update((hi - lo) * L)
+            cnt_h = np.asarray(cnt)[: hi - lo]
+            counts[lo:hi] = cnt_h
+            status[lo:hi] = np.asarray(st)[: hi - lo]
+            keep = np.arange(K)[None, :] < np.minimum(cnt_h, K)[:, None]
+            cx.append(np.asarray(bx)[: hi - lo][keep])
+            cn.append(np.asarray(bn)[: hi - lo][keep])
+            cl.append(np.asarray(bl)[: hi - lo][keep])
+            cp.append(np.broadcast_to(np.arange(lo, hi)[:, None], (hi - lo, K))[keep])
+    finally:
+        bar.close()
+    xs = np.concatenate(cx) if cx else np.zeros((0, 3))
+    ns = np.concatenate(cn) if cn else np.zeros(0, np.int64)
+    ls = np.concatenate(cl) if cl else np.zeros(0)
+    ps = np.concatenate(cp) if cp else np.zeros(0, np.int64)
+
+    # locate: batched over all crossings, in fixed-size padded chunks (one compilation)
+    M = xs.shape[0]
+    pts_out, thetas = np.zeros((M, 3)), np.zeros(M)
+    R = min(max(M, 1), 2**14)
+    for lo, hi in _chunks(M, R):
+        Y, th = _refine_kernel(
+            fn, axis, interpolation, jnp.asarray(_pad(xs[lo:hi], R)), jnp.asarray(_pad(ls[lo:hi, None], R)[:, 0]), hj
+        )
+        pts_out[lo:hi] = np.asarray(Y)[: hi - lo]
+        thetas[lo:hi] = np.asarray(th)[: hi - lo]
+    order = np.lexsort((ns, ps))
+    from .integrate import describe
+
+    return PoincareSection(
+        points=pts_out[order],
+        particle=ps[order].astype(np.int64),
+        step=ns[order].astype(np.int64),
+        theta=thetas[order],
+        t=t0 + (ns[order] + thetas[order]) * float(h),
+        counts=counts,
+        dropped=int(np.sum(np.maximum(counts - K, 0))),
+        axis=axis,
+        value=float(value),
+        direction=direction,
+        period=P,
+        interpolation=interpolation,
+        interpolation_order="p (the method's order; local error O(h^{p+1}))" if interpolation == "step" else "1 (chord; error O(h²))",
+        method=describe(method),
+        status=status,
+    )
