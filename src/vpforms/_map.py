@@ -57,9 +57,9 @@ def _derivatives(phi: Potential, Phi: Potential):
     return d1phi, d2phi, d12phi, d2Phi, d3Phi, d23Phi
 
 
-def _solve_generic(static, y: jax.Array, Y_guess: jax.Array):
-    """The generic map f^± on one point y = (y1, y2, y3): returns (Y, status, iterations)."""
-    phi, Phi, s, tol, max_iter, twist_tol = static
+def _solve_generic(static, y: jax.Array, Y_guess: jax.Array, s: jax.Array):
+    """The generic map f^± (s = ±1) on one point y = (y1, y2, y3): (Y, status, iterations)."""
+    phi, Phi, tol, max_iter, twist_tol = static
     d1phi, d2phi, d12phi, d2Phi, d3Phi, d23Phi = _derivatives(phi, Phi)
     opts = dict(tol=tol, max_iter=max_iter, twist_tol=twist_tol)
 
@@ -92,22 +92,22 @@ def _solve_generic(static, y: jax.Array, Y_guess: jax.Array):
     return Y, status, it1 + it2
 
 
-def _solve_point(static, x: jax.Array, X_guess: jax.Array, idx: jax.Array):
+def _solve_point(static, x: jax.Array, X_guess: jax.Array, idx: jax.Array, sign: jax.Array):
     """((σ,Σ)·f)(x) = f(x·σ)·Σ⁻¹ on one point; idx = gather indices of (σ, Σ, Σ⁻¹)."""
     y = x[idx[0]]  # y = x·σ = (x₊, x∘, x₋)
     Y_guess = X_guess[idx[1]]  # Y = X·Σ = (X₊, X∘, X₋)
-    Y, status, iters = _solve_generic(static, y, Y_guess)
+    Y, status, iters = _solve_generic(static, y, Y_guess, sign)
     return Y[idx[2]], status, iters  # X = Y·Σ⁻¹
 
 
 @partial(jax.jit, static_argnums=0)
-def _solve_kernel(static, x, guess, idx):
-    return _batched(lambda a, b: _solve_point(static, a, b, idx), x, guess)
+def _solve_kernel(static, x, guess, idx, sign):
+    return _batched(lambda a, b: _solve_point(static, a, b, idx, sign), x, guess)
 
 
 @partial(jax.jit, static_argnums=0)
-def _residual_kernel(static, x, X, idx):
-    phi, Phi, s = static[:3]
+def _residual_kernel(static, x, X, idx, s):
+    phi, Phi = static[:2]
     d1phi, d2phi, _, d2Phi, d3Phi, _ = _derivatives(phi, Phi)
 
     def one(xp, Xp):
@@ -124,10 +124,10 @@ def _residual_kernel(static, x, X, idx):
 
 
 @partial(jax.jit, static_argnums=0)
-def _jacobian_kernel(static, x, idx):
+def _jacobian_kernel(static, x, idx, sign):
     def one(xp):
-        J = jax.jacfwd(lambda z: _solve_point(static, z, z, idx)[0])(xp)
-        return J, _solve_point(static, xp, xp, idx)[1]
+        # forward-mode AD through the solves; the status rides along as auxiliary output
+        return jax.jacfwd(lambda z: _solve_point(static, z, z, idx, sign)[:2], has_aux=True)(xp)
 
     return _batched(one, x)
 
@@ -193,14 +193,18 @@ class GeneratingMap:
 
     @property
     def _static(self):
-        return (self.phi, self.Phi, self.sign, self.tol, self.max_iter, self.twist_tol)
+        return (self.phi, self.Phi, self.tol, self.max_iter, self.twist_tol)
 
     @property
     def _perm_indices(self) -> jax.Array:
-        # σ, Σ and Σ⁻¹ as 0-based gather indices, passed as *data* so that the 36 cases (and the
-        # inverse and relabelled maps) share one compiled kernel per pair of potentials.
+        # σ, Σ and Σ⁻¹ as 0-based gather indices, passed as *data* (like the sign) so that the 36
+        # cases (and the inverse and relabelled maps) share one compiled kernel per potential pair.
         c = self.case
         return jnp.array([c.sigma.index, c.Sigma.index, c.Sigma.inverse().index], dtype=jnp.int32)
+
+    @property
+    def _sign_array(self) -> jax.Array:
+        return jnp.asarray(self.sign, dtype=jnp.result_type(float))
 
     # -- public evaluation ------------------------------------------------------------------------
     def solve(self, x: Any, guess: Any = None, *, return_iterations: bool = False):
@@ -211,7 +215,7 @@ class GeneratingMap:
         """
         x = _as_points(x)
         g = x if guess is None else jnp.broadcast_to(_as_points(guess, "guess"), x.shape)
-        X, status, iters = _solve_kernel(self._static, x, g, self._perm_indices)
+        X, status, iters = _solve_kernel(self._static, x, g, self._perm_indices, self._sign_array)
         return (X, status, iters) if return_iterations else (X, status)
 
     def __call__(self, x: Any, guess: Any = None) -> jax.Array:
@@ -229,11 +233,11 @@ class GeneratingMap:
         """The three defining equations (volpot1–3) evaluated at (x, X); zero at X = m(x)."""
         x = _as_points(x)
         X = jnp.broadcast_to(_as_points(X, "X"), x.shape)
-        return _residual_kernel(self._static, x, X, self._perm_indices)
+        return _residual_kernel(self._static, x, X, self._perm_indices, self._sign_array)
 
     def jacobian_and_status(self, x: Any):
         """(DX/Dx, status) by forward-mode AD through the solves (exact IFT derivatives)."""
-        return _jacobian_kernel(self._static, _as_points(x), self._perm_indices)
+        return _jacobian_kernel(self._static, _as_points(x), self._perm_indices, self._sign_array)
 
     def jacobian(self, x: Any) -> jax.Array:
         """The one-step Jacobian DX/Dx, shape (3, 3) or (N, 3, 3); raises on failed points."""

@@ -32,6 +32,7 @@ def newton_scalar(
     tol: float = 1e-13,
     max_iter: int = 50,
     twist_tol: float = 1e-12,
+    divergence_bound: float = 1e8,
 ) -> tuple[jax.Array, jax.Array, jax.Array]:
     """Solve the scalar equation g(z, params) = 0 for z by Newton's method.
 
@@ -50,6 +51,9 @@ def newton_scalar(
     twist_tol:
         |dg| ≤ twist_tol (or a non-finite dg) is a twist failure: the equation is not locally
         solvable for z.
+    divergence_bound:
+        An iterate farther than divergence_bound · (1 + |z0|) from the guess means Newton ran
+        away (e.g. towards an asymptote, where dg also vanishes): ``RESULTS.not_converged``.
 
     Returns
     -------
@@ -57,6 +61,7 @@ def newton_scalar(
     """
     z0 = jnp.asarray(z0, dtype=jnp.result_type(float))
     frozen = lax.stop_gradient(params)
+    z_far = divergence_bound * (1.0 + jnp.abs(lax.stop_gradient(z0)))
 
     def cond(state):
         _, it, status = state
@@ -69,7 +74,7 @@ def newton_scalar(
         twist = ~(jnp.abs(dz) > twist_tol)  # also true for NaN derivative
         step = gz / jnp.where(twist, 1.0, dz)
         z_new = z - step
-        diverged = ~jnp.isfinite(z_new)
+        diverged = ~jnp.isfinite(z_new) | (jnp.abs(z_new - z0) > z_far)
         converged = jnp.abs(step) <= tol * (1.0 + jnp.abs(z_new))
         status = jnp.where(
             twist,
@@ -83,9 +88,8 @@ def newton_scalar(
         z_new = jnp.where(twist | diverged, z, z_new)
         return z_new, it + 1, status
 
-    z_star, iters, status = lax.while_loop(
-        cond, body, (lax.stop_gradient(z0), jnp.int32(0), jnp.int32(_RUNNING))
-    )
+    z0 = lax.stop_gradient(z0)
+    z_star, iters, status = lax.while_loop(cond, body, (z0, jnp.int32(0), jnp.int32(_RUNNING)))
     status = jnp.where(status == _RUNNING, RESULTS.not_converged, status).astype(jnp.int32)
 
     # The one differentiable Newton step: value z* (to rounding), derivative = IFT derivative.
