@@ -1,0 +1,296 @@
+"""The abstract one-step method Ψ_h and the two operations of Section 3.3 of the paper.
+
+Solver contract (every :class:`Method`)
+---------------------------------------
+* ``step(x, h)`` maps x of shape (3,) or (N, 3) to X = Ψ_h(x) of the same shape; ``h`` may be a
+  traced JAX scalar, so a step can sit inside ``jax.jit``, ``jax.vmap``, ``lax.scan`` and
+  ``jax.jacfwd``. Each method jits its batched step once (``h`` is a dynamic argument).
+* ``step_with_status(x, h)`` returns ``(X, status)`` with a per-point ``RESULTS`` code (0 ok,
+  1 twist failure, 2 Newton not converged, 3 non-finite); with ``return_iterations=True`` also the
+  per-point number of scalar Newton iterations. Nothing raises inside jitted code.
+* Every implicit equation is a *scalar* equation solved by the one Newton solver
+  (:func:`vpforms._newton.newton_scalar`), so derivatives through a step are the exact
+  implicit-function derivatives and ``det DΨ_h = 1`` to rounding.
+* Traits are data: ``case`` (a :class:`~vpforms.Case`), ``cls`` (its class), ``order``,
+  ``symmetric``.
+* A method built on a generating form exposes ``generating_map(h, x)``: the
+  :class:`~vpforms.GeneratingMap` of its own case whose solution is the step; its ``residual``
+  checks the determining equations (eq:volpot) of that case.
+* ``adjoint()`` is Ψ*_h = (Ψ_{−h})⁻¹, evaluated through the inverse map (prop:volpotinv), never
+  by a Newton iteration on the whole step.
+
+Relabelling (prop:trivperm) and adjunction (prop:switchperm) act on methods here:
+:class:`Relabelled` is (π, π)·Ψ built on the relabelled field, :class:`Adjoint` is Ψ*.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+
+from .._case import Case
+from .._errors import RESULTS, VPFormsError, raise_for_status
+from .._perm import Perm, as_perm
+
+__all__ = ["Method", "GeneratingMethod", "Relabelled", "Adjoint", "RecipeError", "merge_status"]
+
+
+class RecipeError(VPFormsError, ValueError):
+    """A class recipe cannot be applied to this field (e.g. a zero coefficient a₁₃ for S1)."""
+
+
+def as_points(x: Any) -> jax.Array:
+    x = jnp.asarray(x, dtype=jnp.result_type(float))
+    if x.ndim == 0 or x.shape[-1] != 3:
+        raise ValueError(f"x must have shape (3,) or (N, 3); got shape {tuple(x.shape)}")
+    return x
+
+
+def batched(fn, x: jax.Array):
+    """Apply a per-point function (3,) → pytree to (3,) or (..., 3) by vmap over the points."""
+    if x.ndim == 1:
+        return fn(x)
+    lead = x.shape[:-1]
+    out = jax.vmap(fn)(x.reshape(-1, 3))
+    return jax.tree_util.tree_map(lambda o: o.reshape(*lead, *o.shape[1:]), out)
+
+
+def merge_status(*codes):
+    """The first non-successful status code of a sequence of solves (int32)."""
+    out = jnp.int32(RESULTS.successful)
+    for c in codes:
+        out = jnp.where(out == RESULTS.successful, jnp.asarray(c, jnp.int32), out)
+    return out
+
+
+class Method(ABC):
+    """A one-step volume-preserving method Ψ_h for a divergence-free field (see module docstring).
+
+    Subclasses implement the per-point kernels ``_forward(x, h)`` (X = Ψ_h(x)) and
+    ``_backward(X, h)`` (x = Ψ_h⁻¹(X)), each returning ``(value, status, iterations)`` for one
+    point of shape (3,).
+    """
+
+    #: traits (data); subclasses set them in ``__init__``
+    case: Case
+    order: int = 1
+    symmetric: bool = False
+    field: Any = None
+    name: str = "method"
+
+    @property
+    def cls(self) -> str:
+        """The class of the method's case (fig:triangle)."""
+        return self.case.cls
+
+    # -- per-point kernels ----------------------------------------------------------------------
+    @abstractmethod
+    def _forward(self, x: jax.Array, h: Any):
+        """X = Ψ_h(x) on one point: (X, status, iterations)."""
+
+    @abstractmethod
+    def _backward(self, X: jax.Array, h: Any):
+        """x = Ψ_h⁻¹(X) on one point: (x, status, iterations)."""
+
+    def generating_map(self, h: Any, x: Any = None):
+        """The GeneratingMap of :attr:`case` whose solution is the step (None if not generated).
+
+        ``x`` (one point) only selects the branch of an inner implicit potential (the discrete
+        Lagrangian's p̄); explicit potentials ignore it.
+        """
+        return None
+
+    def residual(self, x: Any, X: Any, h: Any) -> jax.Array:
+        """The determining equations (volpot1–3) of :attr:`case` at (x, X); zero on a step.
+
+        Only for methods with a generating map (``generating_map(h) is not None``).
+        """
+        h = jnp.asarray(h, float)
+        x = as_points(x)
+        if self.generating_map(h, x if x.ndim == 1 else x[0]) is None:
+            raise VPFormsError(f"{self.name} has no explicit generating map; use twist(x, h)")
+        fn = self._cached_jit("residual", lambda: lambda x, X, h: _residual(self, x, X, h))
+        return fn(x, jnp.broadcast_to(as_points(X), x.shape), h)
+
+    # -- public, jit-compatible evaluation ------------------------------------------------------
+    def _jitted(self):
+        fn = getattr(self, "_jit_cache", None)
+        if fn is None:
+
+            def run(x, h):
+                return batched(lambda p: self._forward(p, h), x)
+
+            fn = jax.jit(run)
+            self._jit_cache = fn
+        return fn
+
+    def step_with_status(self, x: Any, h: Any, *, return_iterations: bool = False):
+        """(X, status[, iterations]) for x of shape (3,) or (N, 3); jit/vmap-compatible."""
+        X, status, iters = self._jitted()(as_points(x), jnp.asarray(h, dtype=jnp.result_type(float)))
+        return (X, status, iters) if return_iterations else (X, status)
+
+    def step(self, x: Any, h: Any) -> jax.Array:
+        """X = Ψ_h(x), same shape as x (use :meth:`step_with_status` to see failures)."""
+        return self.step_with_status(x, h)[0]
+
+    def __call__(self, x: Any, h: Any) -> jax.Array:
+        """X = Ψ_h(x); raises the named error if a point failed (not under jit)."""
+        X, status = self.step_with_status(x, h)
+        if isinstance(status, jax.core.Tracer):
+            raise VPFormsError("Method.__call__ checks the status; under jit use step_with_status")
+        raise_for_status(status, what=f"{self.name}{self.case}")
+        return X
+
+    def inverse_step(self, X: Any, h: Any) -> jax.Array:
+        """x = Ψ_h⁻¹(X) (through the inverse map, not a Newton on the whole step)."""
+        fn = self._cached_jit(
+            "inverse", lambda: lambda X, h: batched(lambda p: self._backward(p, h)[0], X)
+        )
+        return fn(as_points(X), jnp.asarray(h, float))
+
+    def euler_guess(self, x: jax.Array, h: Any) -> jax.Array:
+        """x + h·a(x) — the initial guess of every solve (X = x + h a(x) + O(h²) by consistency)."""
+        comps = self.field.components
+        return x + h * jnp.stack([jnp.asarray(c(x[0], x[1], x[2]), float) for c in comps])
+
+    # -- diagnostics -----------------------------------------------------------------------------
+    def _cached_jit(self, key: str, make):
+        cache = self.__dict__.setdefault("_jits", {})
+        if key not in cache:
+            cache[key] = jax.jit(make())
+        return cache[key]
+
+    def jacobian(self, x: Any, h: Any) -> jax.Array:
+        """DΨ_h(x) by forward-mode AD (exact implicit-function derivatives), (3,3) or (N,3,3)."""
+        fn = self._cached_jit(
+            "jacobian",
+            lambda: lambda x, h: batched(
+                lambda p: jax.jacfwd(lambda z: self._forward(z, h)[0])(p), x
+            ),
+        )
+        return fn(as_points(x), jnp.asarray(h, float))
+
+    def det(self, x: Any, h: Any) -> jax.Array:
+        """det DΨ_h(x): 1 to rounding for every method in vpforms."""
+        return jnp.linalg.det(self.jacobian(x, h))
+
+    def twist(self, x: Any, h: Any) -> jax.Array:
+        """The twist conditions of :attr:`case` at the step from x, shape (2,) or (N, 2).
+
+        t₁ = ∂X₋/∂x₊ and t₂ = ∂x₋/∂X₊ (the LM table's conditions; ∂₁₂φ ≠ 0 and ∂₂₃Φ ≠ 0 of
+        eq:volpot). A generating form of the case exists near (x, Ψ_h(x)) iff both are non-zero.
+        For the correction maps this is a diagnostic: where it fails, the form ceases to exist,
+        not the map.
+        """
+        c = self.case
+        J = self.jacobian(x, h)
+        t1 = J[..., c.X_minus - 1, c.x_plus - 1]
+        t2 = jnp.linalg.inv(J)[..., c.x_minus - 1, c.X_plus - 1]
+        return jnp.stack([t1, t2], axis=-1)
+
+    # -- the two reductions ----------------------------------------------------------------------
+    def adjoint(self) -> "Method":
+        """Ψ*_h = (Ψ_{−h})⁻¹ (prop:switchperm): case (Σ, σ), evaluated through the inverse map."""
+        return Adjoint(self)
+
+    def __repr__(self) -> str:
+        return (
+            f"{type(self).__name__}(name={self.name!r}, case={self.case}, cls={self.cls!r}, "
+            f"order={self.order}, symmetric={self.symmetric})"
+        )
+
+
+class GeneratingMethod(Method):
+    """A method whose step is one GeneratingMap solve (eq:volpot) for its case.
+
+    Subclasses implement ``generating_map(h, x)``; the step, its inverse (prop:volpotinv) and the
+    residual all go through that one engine.
+    """
+
+    newton = {"tol": 1e-13, "max_iter": 50, "twist_tol": 1e-12}
+
+    @abstractmethod
+    def generating_map(self, h: Any, x: Any = None):
+        ...
+
+    def _forward(self, x, h):
+        m = self.generating_map(h, x)
+        return m.solve(x, self.euler_guess(x, h), return_iterations=True)
+
+    def _backward(self, X, h):
+        # prop:permactvolpotinv: the inverse is (Σ, σ)·f_{Φ·p, φ·p} with the same sign
+        m = self.generating_map(h, X).inverse()
+        return m.solve(X, self.euler_guess(X, -h), return_iterations=True)
+
+
+
+def _residual(method, x, X, h):
+    X = jnp.broadcast_to(X, x.shape)
+    if x.ndim == 1:
+        return method.generating_map(h, x).residual(x, X)
+    return jax.vmap(lambda p, P: method.generating_map(h, p).residual(p, P))(
+        x.reshape(-1, 3), X.reshape(-1, 3)
+    ).reshape(x.shape)
+
+
+class Relabelled(Method):
+    """(π, π)·Ψ (prop:permactalg, prop:trivperm): the method ``base`` — built for the relabelled
+    field (π⁻¹, π⁻¹)·a — conjugated by π, so X = Ψ(x·π)·π⁻¹ and the case is (π∘σ, π∘Σ).
+    """
+
+    def __init__(self, base: Method, pi: Perm | tuple, field: Any = None):
+        self.base = base
+        self.pi = as_perm(pi)
+        self.case = base.case.relabel(self.pi)
+        self.order, self.symmetric = base.order, base.symmetric
+        self.field = field if field is not None else base.field
+        self.name = base.name
+        self._pi_idx = jnp.asarray(self.pi.index)
+        self._pi_inv_idx = jnp.asarray(self.pi.inverse().index)
+
+    def generating_map(self, h, x=None):
+        y = None if x is None else jnp.asarray(x)[self._pi_idx]
+        m = self.base.generating_map(h, y)
+        return None if m is None else m.relabel(self.pi)
+
+    def _forward(self, x, h):
+        m = self.generating_map(h, x)
+        if m is not None:  # one engine: the relabelled generating map itself
+            return m.solve(x, self.euler_guess(x, h), return_iterations=True)
+        Y, st, it = self.base._forward(x[self._pi_idx], h)
+        return Y[self._pi_inv_idx], st, it
+
+    def _backward(self, X, h):
+        m = self.generating_map(h, X)
+        if m is not None:
+            return m.inverse().solve(X, self.euler_guess(X, -h), return_iterations=True)
+        y, st, it = self.base._backward(X[self._pi_idx], h)
+        return y[self._pi_inv_idx], st, it
+
+
+class Adjoint(Method):
+    """Ψ*_h = (Ψ_{−h})⁻¹ (prop:switchperm): the case (Σ, σ), potentials φ̃ = Φ(−h)·p,
+    Φ̃ = φ(−h)·p, i.e. exactly ``GeneratingMap.inverse()`` of the map at −h."""
+
+    def __init__(self, base: Method):
+        self.base = base
+        self.case = base.case.switched()
+        self.order, self.symmetric = base.order, base.symmetric
+        self.field = base.field
+        self.name = base.name + "*"
+
+    def adjoint(self) -> Method:
+        return self.base
+
+    def generating_map(self, h, x=None):
+        m = self.base.generating_map(-h, x)
+        return None if m is None else m.inverse()
+
+    def _forward(self, x, h):
+        return self.base._backward(x, -h)
+
+    def _backward(self, X, h):
+        return self.base._forward(X, -h)

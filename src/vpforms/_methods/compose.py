@@ -1,0 +1,133 @@
+"""Higher order by composition (Hairer–Lubich–Wanner II.4, V.3).
+
+* order 2: S_h = Ψ*_{h/2} ∘ Ψ_{h/2} (symmetric, since (Ψ*)* = Ψ);
+* order 4/6: symmetric compositions S_{γ_s h} ∘ … ∘ S_{γ_1 h} of the order-2 method with the
+  coefficients of :data:`COMPOSITIONS` (data): triple jump (Creutz–Gocksch, Suzuki, Yoshida 1990),
+  Suzuki's 5-stage order 4, Yoshida's 7-stage order 6 ("solution A") and Kahan–Li's 9-stage order 6
+  (s9odr6a). Their order conditions (Σγ = 1, Σγ³ = 0, …) are checked in the tests.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import jax.numpy as jnp
+import numpy as np
+from jax import lax
+
+from ._base import Method, merge_status
+
+__all__ = ["compose", "COMPOSITIONS", "Composition", "SymmetricPair", "triple_jump"]
+
+
+def triple_jump(order: int) -> tuple[float, ...]:
+    """The recursive triple jump: γ = (γ₁, γ₂, γ₁), γ₁ = 1/(2 − 2^{1/(p+1)}), raising p → p + 2."""
+    gam = np.array([1.0])
+    for p in range(2, order, 2):
+        g1 = 1.0 / (2.0 - 2.0 ** (1.0 / (p + 1)))
+        g2 = 1.0 - 2.0 * g1
+        gam = np.concatenate([g1 * gam, g2 * gam, g1 * gam])
+    return tuple(float(g) for g in gam)
+
+
+def _suzuki5() -> tuple[float, ...]:
+    g = 1.0 / (4.0 - 4.0 ** (1.0 / 3.0))
+    return (g, g, 1.0 - 4.0 * g, g, g)
+
+
+def _yoshida7() -> tuple[float, ...]:
+    w1, w2, w3 = -1.17767998417887, 0.235573213359357, 0.784513610477560
+    w0 = 1.0 - 2.0 * (w1 + w2 + w3)
+    return (w3, w2, w1, w0, w1, w2, w3)
+
+
+_KL9 = (
+    0.39216144400731413928,
+    0.33259913678935943860,
+    -0.70624617255763935981,
+    0.08221359629355080023,
+    0.79854399093482996340,
+)
+
+#: (order, name) → coefficients γ of the symmetric composition of a symmetric order-2 method.
+COMPOSITIONS: dict[tuple[int, str], tuple[float, ...]] = {
+    (4, "triple_jump"): triple_jump(4),
+    (4, "suzuki"): _suzuki5(),
+    (6, "triple_jump"): triple_jump(6),
+    (6, "yoshida"): _yoshida7(),
+    (6, "kahan_li"): _KL9 + _KL9[-2::-1],
+}
+DEFAULT = {4: "suzuki", 6: "kahan_li"}
+
+
+class SymmetricPair(Method):
+    """S_h = Ψ*_{h/2} ∘ Ψ_{h/2}: symmetric, order 2 (order ≥ 1 methods; HLW Thm II.3.2)."""
+
+    def __init__(self, base: Method):
+        self.base, self.adj = base, base.adjoint()
+        self.case, self.field = base.case, base.field
+        self.order, self.symmetric = max(2, base.order if base.order % 2 == 0 else base.order + 1), True
+        self.name = f"{base.name}*∘{base.name}"
+
+    def _forward(self, x, h):
+        y, s1, n1 = self.base._forward(x, h / 2)
+        X, s2, n2 = self.adj._forward(y, h / 2)
+        return X, merge_status(s1, s2), n1 + n2
+
+    def _backward(self, X, h):
+        y, s1, n1 = self.adj._backward(X, h / 2)
+        x, s2, n2 = self.base._backward(y, h / 2)
+        return x, merge_status(s1, s2), n1 + n2
+
+
+class Composition(Method):
+    """S_{γ_s h} ∘ … ∘ S_{γ_1 h} for a symmetric method S (one compiled stage, ``lax.scan``)."""
+
+    def __init__(self, base: Method, gammas, order: int, scheme_name: str):
+        self.base = base
+        self.gammas = tuple(float(g) for g in gammas)
+        self.case, self.field = base.case, base.field
+        self.order, self.symmetric = int(order), True
+        self.name = f"{scheme_name}{order}[{base.name}]"
+        self._g = jnp.asarray(self.gammas)
+
+    def _forward(self, x, h):
+        def body(carry, g):
+            x, st, n = carry
+            X, s, k = self.base._forward(x, g * h)
+            return (X, merge_status(st, s), n + k), None
+
+        init = (x, jnp.int32(0), jnp.int32(0))
+        (X, st, n), _ = lax.scan(body, init, self._g)
+        return X, st, n
+
+    def _backward(self, X, h):
+        def body(carry, g):
+            X, st, n = carry
+            x, s, k = self.base._backward(X, g * h)
+            return (x, merge_status(st, s), n + k), None
+
+        init = (X, jnp.int32(0), jnp.int32(0))
+        (x, st, n), _ = lax.scan(body, init, self._g[::-1])
+        return x, st, n
+
+
+def compose(method: Method, order: int = 2, scheme: str | None = None) -> Method:
+    """A method of order 2, 4 or 6 from ``method`` (any order-1 method of vpforms).
+
+    order 2: Ψ*_{h/2}∘Ψ_{h/2}; order 4: ``scheme`` "suzuki" (default) or "triple_jump"; order 6:
+    "kahan_li" (default), "yoshida" or "triple_jump" — each a symmetric composition of the order-2
+    method (or of ``method`` itself if it is already symmetric of order ≥ 2).
+    """
+    if order not in (2, 4, 6):
+        raise ValueError(f"order must be 2, 4 or 6, not {order!r}")
+    base = method if (method.symmetric and method.order >= 2) else SymmetricPair(method)
+    if order == 2:
+        if scheme is not None:
+            raise ValueError("order 2 is Ψ*_{h/2}∘Ψ_{h/2}; it takes no scheme")
+        return base
+    name = DEFAULT[order] if scheme is None else scheme
+    if (order, name) not in COMPOSITIONS:
+        known = [n for (o, n) in COMPOSITIONS if o == order]
+        raise ValueError(f"unknown order-{order} composition {name!r}; known: {known}")
+    return Composition(base, COMPOSITIONS[(order, name)], order, name)
