@@ -101,8 +101,10 @@ def test_components_work_under_jit_and_vmap(abc):
     np.testing.assert_allclose(np.asarray(v), np.asarray(abc(pts))[:, 1], atol=1e-15)
 
 
-def test_from_callable_divergence_at_random_points(abc_callable):
-    pts = _pts(ABC_BOX, 500, 11)
+@HYP
+@given(st.integers(0, 2**31 - 1))
+def test_from_callable_divergence_at_random_points(abc_callable, seed):
+    pts = _pts(ABC_BOX, 64, seed)
     assert np.max(np.abs(np.asarray(abc_callable.divergence(pts)))) <= 1e-12
     assert abc_callable.exprs is None and abc_callable.symbols is None
     assert abc_callable.potential_method == "quadrature(n=32)"
