@@ -46,11 +46,23 @@ _MAX_AUTO_CHUNK = 2**15
 
 
 def describe(method: Any) -> str:
-    """A one-line human description of a method (its ``description`` if it has one)."""
-    for attr in ("description", "name"):
-        d = getattr(method, attr, None)
-        if isinstance(d, str) and d:
-            return d
+    """A one-line human description of a method: its ``description``, else name, case and order."""
+    d = getattr(method, "description", None)
+    if isinstance(d, str) and d:
+        return d
+    name = getattr(method, "name", None)
+    if isinstance(name, str) and name:
+        parts = [name]
+        case = getattr(method, "case", None)
+        if case is not None:
+            parts.append(f"case {case}")
+        cls = getattr(method, "cls", None)
+        if isinstance(cls, str) and cls not in name:
+            parts.append(f"class {cls}")
+        order = getattr(method, "order", None)
+        if order is not None:
+            parts.append(f"order {order}")
+        return ", ".join(parts)
     return repr(method)
 
 
