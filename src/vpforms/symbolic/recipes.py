@@ -60,6 +60,8 @@ __all__ = [
     "linear_field",
     "as_matrix",
     "to_generic",
+    "from_generic",
+    "flip_generic",
     "check_dependencies",
 ]
 
@@ -492,3 +494,34 @@ def to_generic(case: Case | tuple, phi: sp.Expr, Phi: sp.Expr) -> GenericPotenti
         sorted((phi_g.free_symbols | Phi_g.free_symbols) - set(y) - set(Y), key=str)
     )
     return GenericPotentials(cf.case, phi_g, Phi_g, cf.sign, cf.c_phi, cf.c_Phi, params)
+
+
+def from_generic(case: Case | tuple, phi_g: sp.Expr, Phi_g: sp.Expr) -> tuple[sp.Expr, sp.Expr]:
+    """The inverse of :func:`to_generic`: generic-order expressions φ_g(Y3, y2, y3), Φ_g(Y3, Y2, y3)
+    → LM-normalised (φ, Φ) of ``case`` in the paper's variables (φ = c_φ φ_g(X₋, x∘, x₋), …)."""
+    cf = case_forms(case)
+    xp, xc, xm = cf.x_roles
+    Xp, Xc, Xm = cf.X_roles
+    bad = (sp.sympify(phi_g).free_symbols & (set(x) | set(X) | {y[0], Y[0], Y[1]})) | (
+        sp.sympify(Phi_g).free_symbols & (set(x) | set(X) | {y[0], y[1], Y[0]})
+    )
+    if bad:
+        raise ValueError(
+            f"generic potentials depend on {', '.join(sorted(map(str, bad)))}: phi_g must be a "
+            "function of (Y3, y2, y3) and Phi_g of (Y3, Y2, y3)"
+        )
+    return (
+        cf.c_phi * sp.sympify(phi_g).xreplace({Y[2]: Xm, y[1]: xc, y[2]: xm}),
+        cf.c_Phi * sp.sympify(Phi_g).xreplace({Y[2]: Xm, Y[1]: Xc, y[2]: xm}),
+    )
+
+
+def flip_generic(phi_g: sp.Expr, Phi_g: sp.Expr) -> tuple[sp.Expr, sp.Expr]:
+    """(Φ_g·p, φ_g·p) in the generic order (prop:volpotinv, prop:switchperm), p = (3, 2, 1).
+
+    The new φ is (Φ_g·p)(Y3, y2, y3) = Φ_g(y3, y2, Y3); the new Φ is (φ_g·p)(Y3, Y2, y3) =
+    φ_g(y3, Y2, Y3).
+    """
+    new_phi = sp.sympify(Phi_g).xreplace({Y[2]: y[2], Y[1]: y[1], y[2]: Y[2]})
+    new_Phi = sp.sympify(phi_g).xreplace({Y[2]: y[2], y[1]: Y[1], y[2]: Y[2]})
+    return new_phi, new_Phi

@@ -1,0 +1,117 @@
+"""The 36 generating one-forms: f*ν̃ − ν = dλ, det Df and twist, and the reduction propositions,
+proved symbolically on undefined potentials (exact expansion to 0)."""
+
+from __future__ import annotations
+
+import pytest
+import sympy as sp
+
+from vpforms import Case, Perm, cases
+
+sym = pytest.importorskip("vpforms.symbolic")
+from vpforms.symbolic import exterior as ext  # noqa: E402
+from vpforms.symbolic._symbols import COORDS, X, x  # noqa: E402
+
+CASES = cases()
+IDS = [f"{c.sigma}-{c.Sigma}" for c in CASES]
+
+
+@pytest.mark.parametrize("case", CASES, ids=IDS)
+def test_generating_form_identity_det_and_twist(case):
+    p = sym.prove_case(case)
+    assert p.one_form_holds, p.residual
+    assert p.det_holds and p.det == 1
+    assert p.twist_holds
+    assert p.lm_equivalent
+
+
+@pytest.mark.parametrize("case", CASES, ids=IDS)
+def test_opposite_sign_breaks_the_identity_and_reverses_orientation(case):
+    p = sym.prove_case(case, sign=-case.sign)
+    assert not p.one_form_holds
+    assert p.det_holds and p.det == -1
+
+
+def test_primitives_are_primitives_of_the_volume_form():
+    vol_x = ext.wedge_all([ext.dvar(v) for v in x])
+    vol_X = ext.wedge_all([ext.dvar(v) for v in X])
+    for c in CASES:
+        cf = sym.case_forms(c)
+        assert (ext.d(cf.nu_form()) - vol_x).is_zero()
+        assert (ext.d(cf.nu_tilde_form()) - vol_X).is_zero()
+        # c = x₊, C = X₊: the coefficient of ν is the role x₊ (LM: the determined variable)
+        assert x[cf.nu[2] - 1] == cf.x_roles[0] and X[cf.nu_tilde[2] - 1] == cf.X_roles[0]
+
+
+def test_lm_normalisation_constants_and_the_sign_rule():
+    for c in CASES:
+        cf = sym.case_forms(c)
+        assert cf.sign == c.sigma.sign * c.Sigma.sign == c.tau.sign
+        assert cf.c_phi in (1, -1) and cf.c_Phi in (1, -1)
+        assert cf.c_phi * cf.c_Phi == -cf.sign  # volpot2 becomes ∂_{X₋}φ = ∂_{x₋}Φ
+        assert (cf.l, cf.m) == (c.sigma(3), c.Sigma(3))
+
+
+def test_compatibility_condition_always_reads_dXm_phi_equals_dxm_Phi():
+    for c in CASES:
+        cf = sym.case_forms(c)
+        phi, Phi = cf.undefined_potentials()
+        _, compat, _ = sym.lm_equations(c)
+        assert compat.lhs == sp.diff(phi, cf.X_roles[2])
+        assert compat.rhs == sp.diff(Phi, cf.x_roles[2])
+
+
+def test_class_counts_and_tab123123_block():
+    counts = {}
+    for c in CASES:
+        counts[c.cls] = counts.get(c.cls, 0) + 1
+    assert counts == {"S1": 6, "S2": 6, "SE+SE": 6, "DL+DL": 6, "SE+DL": 12}
+    block = {sym.case_forms(c).cell: c.cls for c in CASES
+             if (sym.case_forms(c).k, sym.case_forms(c).K) == (0, 0)}
+    assert block == {"AC": "S1", "BD": "S1", "AD": "DL+DL", "BC": "DL+DL"}
+
+
+def test_exterior_algebra_basics():
+    f = sp.Function("f")(*COORDS)
+    assert ext.d(ext.d(f)).is_zero()
+    a, b = ext.dvar(x[0]), ext.dvar(X[1])
+    assert (ext.wedge(a, b) + ext.wedge(b, a)).is_zero()
+    assert ext.wedge(a, a).is_zero()
+    g = sp.Function("g")(*COORDS)
+    one = g * ext.dvar(x[1])
+    # Leibniz: d(f·α) = df∧α + f dα
+    assert (ext.d(f * one) - (ext.wedge(ext.d(f), one) + f * ext.d(one))).is_zero()
+
+
+def test_twist_potentials_are_the_mixed_second_derivatives():
+    cf = sym.case_forms(Case((3, 2, 1), (3, 2, 1)))
+    phi, Phi = cf.undefined_potentials()
+    t1, t2 = cf.twist_potentials(phi, Phi)
+    assert t1 == sp.diff(phi, x[1], X[0]) and t2 == sp.diff(Phi, x[0], X[1])
+    assert cf.twist_conditions() == ("∂X1/∂x3 ≠ 0", "∂x1/∂X3 ≠ 0")
+
+
+# -- the reduction propositions -------------------------------------------------------------------
+@pytest.mark.parametrize("sign", [1, -1])
+def test_volpotinv_same_sign_only(sign):
+    assert sym.check_volpotinv(sign).holds
+    assert not sym.check_volpotinv(sign, same_sign=False).holds
+
+
+def test_permactalg_for_all_triples():
+    assert sym.check_permactalg().holds
+
+
+def test_trivperm_and_switchperm_all_cases():
+    for c in CASES:
+        for pi in Perm.all():
+            assert sym.check_trivperm(c, pi).holds
+        assert sym.check_switchperm(c).holds
+        # negative controls: without time reversal, or with the opposite sign, it fails
+        assert not sym.check_switchperm(c, reverse_time=False).holds
+        assert not sym.check_switchperm(c, sign=-c.sign).holds
+
+
+def test_generic_equations_reject_a_bad_sign():
+    with pytest.raises(ValueError, match="sign"):
+        sym.generic_equations(CASES[0], sign=0)
