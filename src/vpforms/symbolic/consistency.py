@@ -170,8 +170,8 @@ def consistency(
     if not isinstance(case, Case):
         case = Case(*case)
     matrix = None
-    if isinstance(field, sp.MatrixBase) or (
-        hasattr(field, "__len__") and len(field) == 3 and all(hasattr(r, "__len__") for r in field)
+    if isinstance(field, sp.MatrixBase) or hasattr(field, "shape") or (
+        hasattr(field, "__len__") and any(hasattr(r, "__len__") for r in field)
     ):
         matrix = as_matrix(field)
         comps = linear_field(matrix)
@@ -322,6 +322,9 @@ def _series_root(E: sp.Expr, v: sp.Symbol, guess: sp.Expr, n: int) -> sp.Expr | 
 
 def _series_result(case, phi, Phi, comps, sign, n) -> ConsistencyResult:
     cf, (E1, E2, E3) = _lm_residuals(case, phi, Phi, sign)
+    # Later stages may divide by powers of h (e.g. (X₋ − x₋)/h in a discrete Lagrangian), so the
+    # earlier unknowns are solved to a few more orders than reported.
+    n_out, n = n, n + 3
     Xp, Xc, Xm = cf.X_roles
     ident = dict(zip(X, x))
     Xm_s = _series_root(E1, Xm, ident[Xm], n)
@@ -330,11 +333,11 @@ def _series_result(case, phi, Phi, comps, sign, n) -> ConsistencyResult:
         Xc_s = _series_root(sp.together(E2).xreplace({Xm: Xm_s}), Xc, ident[Xc], n)
     if Xc_s is None:
         nan = (sp.nan,) * 3
-        return ConsistencyResult(case, False, False, False, -1, n, sp.nan, False, None, None,
+        return ConsistencyResult(case, False, False, False, -1, n_out, sp.nan, False, None, None,
                                  None, nan)
-    Xp_s = _truncate(sp.series(sp.together(E3 + Xp).xreplace({Xm: Xm_s, Xc: Xc_s}), h, 0, n + 1)
-                     .removeO(), n)
-    sol = {Xp: Xp_s, Xc: _truncate(Xc_s, n), Xm: _truncate(Xm_s, n)}
+    Xp_s = sp.series(sp.together(E3 + Xp).xreplace({Xm: Xm_s, Xc: Xc_s}), h, 0, n_out + 1).removeO()
+    n = n_out
+    sol = {Xp: _truncate(Xp_s, n), Xc: _truncate(Xc_s, n), Xm: _truncate(Xm_s, n)}
     Xs = tuple(sol[v] for v in X)
     # The exact flow's Lie series: T_0 = x, T_k = (a·∇ T_{k−1}) / k.
     T = [list(x)]
