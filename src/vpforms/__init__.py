@@ -21,6 +21,18 @@ from ._map import GeneratingMap
 from .fields import Field
 from ._newton import newton_scalar
 from ._perm import FLIP, Perm, as_perm
+from ._methods import (
+    DLDL,
+    S1,
+    S2,
+    SEDL,
+    SESE,
+    Method,
+    QuispelCorrection,
+    RecipeError,
+    compose,
+    scheme,
+)
 
 __version__ = "0.1.0"
 
@@ -42,4 +54,14 @@ __all__ = [
     "FLIP",
     "Perm",
     "as_perm",
+    "scheme",
+    "compose",
+    "Method",
+    "SESE",
+    "SEDL",
+    "DLDL",
+    "S1",
+    "S2",
+    "QuispelCorrection",
+    "RecipeError",
 ]
