@@ -117,8 +117,25 @@ def _problem(args):
         raise CLIError(f"bad parameters for problem {args.problem!r}: {exc}") from None
 
 
+_METHODS: dict = {}
+
+
 def _method(field, cls: str = "SE+SE", case=None, order: int = 1, fast: bool = False, theta=None):
-    """A vpforms method (class representative or explicit case, composed to ``order``) or RK4."""
+    """A vpforms method (class representative or explicit case, composed to ``order``) or RK4.
+
+    Methods are cached per (field, options) so that repeated in-process calls (tests, the demo)
+    reuse their compiled kernels.
+    """
+    key = (id(field), str(cls).strip().upper(), case, order, fast, theta)
+    hit = _METHODS.get(key)
+    if hit is not None and hit[0] is field:
+        return hit[1]
+    m = _make_method(field, cls, case, order, fast, theta)
+    _METHODS[key] = (field, m)
+    return m
+
+
+def _make_method(field, cls, case, order, fast, theta):
     from .integrate import RK4
 
     if str(cls).strip().lower() == "rk4":
@@ -221,7 +238,7 @@ def _summary_table(title: str, rows: dict[str, Any]):
 
     t = Table(title=title, show_header=False)
     t.add_column("", style="bold")
-    t.add_column("")
+    t.add_column("", overflow="fold")
     for k, v in rows.items():
         if isinstance(v, float):
             v = f"{v:.6g}"
@@ -257,8 +274,8 @@ def _cmd_run(args, console) -> int:
 
         for name, d in invariant_drift(prob.invariants, sol.xs[None] if sol.xs.ndim == 2 else sol.xs).items():
             rows[f"max |Δ {name}|"] = f"{float(np.max(np.abs(d))):.3e}"
-    rows["written"] = args.out
     console.print(_summary_table("vpforms run", rows))
+    console.print(f"written: {args.out}", soft_wrap=True)
     if sol.n_failed:
         idx = np.flatnonzero(np.atleast_1d(sol.status))
         console.print(f"[yellow]{sol.n_failed} particle(s) failed and were frozen; first: "
@@ -299,9 +316,8 @@ def _cmd_poincare(args, console) -> int:
         "interpolation": f"{sec.interpolation}: order {sec.interpolation_order}",
         "failed orbits": int((sec.status != 0).sum()),
         "wall time (s)": round(wall, 2),
-        "figure": args.png,
-        "crossings CSV": args.csv,
     }))
+    console.print(f"figure: {args.png}\ncrossings CSV: {args.csv}", soft_wrap=True)
     return 0
 
 
@@ -356,7 +372,7 @@ def _cmd_order(args, console) -> int:
     fits = _order_study(prob, specs, args.T, hs, args.particles, args.seed, console, fast=args.fast)
     console.print(_order_table(fits, f"max error at T = {args.T:g} on {prob.name} ({args.particles} particles; · = not in fit)"))
     plots.order_figure(fits, title=f"Convergence on {prob.name} at T = {args.T:g}", path=args.png)
-    console.print(f"figure: {args.png}")
+    console.print(f"figure: {args.png}", soft_wrap=True)
     return 0
 
 
@@ -403,7 +419,7 @@ def _cmd_drift(args, console) -> int:
     for label, row in stats.items():
         t.add_row(label, *[f"{row[k]:.3e}" for k in keys])
     console.print(t)
-    console.print(f"figure: {args.png}")
+    console.print(f"figure: {args.png}", soft_wrap=True)
     return 0
 
 
@@ -431,15 +447,29 @@ def _errata_function():
 
 def _cmd_errata(args, console) -> int:
     fn = _errata_function()
-    with console.status("checking the paper's formulas symbolically…"):
-        out = fn()
-    text = out if isinstance(out, str) else getattr(out, "text", None) or getattr(out, "markdown", None) or str(out)
-    if getattr(args, "markdown", False):
-        print(text)
-    else:
-        from rich.markdown import Markdown
+    kw = {}
+    if args.matrix:
+        import sympy as sp
 
-        console.print(Markdown(text))
+        try:
+            rows = [[sp.Rational(v.strip()) for v in r.split(",")] for r in args.matrix.split(";")]
+            A = sp.Matrix(rows)
+        except (ValueError, TypeError, sp.SympifyError) as exc:
+            raise CLIError(f"--matrix must be 3 rows 'a,b,c;d,e,f;g,h,i' of numbers: {exc}") from None
+        if A.shape != (3, 3) or A.trace() != 0:
+            raise CLIError("--matrix must be a traceless 3×3 matrix, e.g. '1,2,3;-1,2,1;2,-2,-3'")
+        kw["A"] = A
+    fmt = "markdown" if args.markdown else "text"
+    with console.status("checking the paper's formulas symbolically (about 30 s on a generic matrix)…"):
+        try:
+            out = fn(fmt=fmt, **kw)
+        except TypeError:  # a report function without the fmt/A keywords
+            out = fn()
+    text = out if isinstance(out, str) else str(out)
+    if not args.markdown:
+        console.print("[bold]Errata of arXiv 1412.6345, measured symbolically[/bold] "
+                      "(consistency M(0) = I, M'(0) = A, order and det of X = M(h)x)")
+    print(text)
     return 0
 
 
@@ -620,6 +650,9 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Print the symbolic errata report (every printed formula that is wrong, "
                                    "with the corrected one, re-derived by SymPy).")
     p.add_argument("--markdown", action="store_true", help="print raw Markdown")
+    p.add_argument("--matrix", default=None, metavar="'a,b,c;d,e,f;g,h,i'",
+                   help="check on this traceless rational matrix instead of the generic symbolic one "
+                        "(faster, but a special matrix can hide a defect)")
     p.set_defaults(func=_cmd_errata)
 
     p = sub.add_parser("demo", help="a one-minute tour that writes figures to a folder",
@@ -635,29 +668,36 @@ def main(argv: list[str] | None = None) -> int:
     from rich.console import Console
 
     console = Console()
-    err = Console(stderr=True)
     debug = bool(os.environ.get("VPFORMS_DEBUG"))
     try:
         args = build_parser().parse_args(argv)
     except CLIError as exc:
-        err.print(f"vpforms: error: {exc}", markup=False, highlight=False)
+        _error(str(exc))
         return 2
     except SystemExit as exc:  # --help
         return int(exc.code or 0)
     try:
         return int(args.func(args, console) or 0)
     except CLIError as exc:
-        err.print(f"vpforms: error: {exc}", markup=False, highlight=False)
+        _error(str(exc))
         return 2
     except KeyboardInterrupt:
-        err.print("vpforms: interrupted", markup=False)
+        print("vpforms: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # e.g. `vpforms errata | head`
+        sys.stdout = open(os.devnull, "w")
+        return 0
     except Exception as exc:  # one line, no traceback, for any failure
         if debug:
             raise
         msg = " ".join(str(exc).split()) or type(exc).__name__
-        err.print(f"vpforms: error: {type(exc).__name__}: {msg}", markup=False, highlight=False)
+        _error(f"{type(exc).__name__}: {msg}")
         return 1
+
+
+def _error(msg: str) -> None:
+    """The one-line error report (plain stderr: never wrapped)."""
+    print("vpforms: error: " + " ".join(msg.split()), file=sys.stderr)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -42,7 +42,7 @@ __all__ = ["integrate", "Solution", "RK4", "describe", "auto_chunk_size"]
 #: Default device-memory budget (bytes) for the saved states of one chunk and one segment.
 _SEGMENT_BYTES = 64 * 2**20
 #: Largest chunk chosen automatically: big enough to amortise dispatch, small enough for cache.
-_MAX_AUTO_CHUNK = 2**15
+_MAX_AUTO_CHUNK = 2**13
 
 
 def describe(method: Any) -> str:
@@ -215,8 +215,6 @@ def _advance(step_with_status, x, status, failed, n, h, n_stop):
         newly = alive & (st != RESULTS.successful)
         return x, jnp.where(newly, st, status), jnp.where(newly, n, failed).astype(failed.dtype)
 
-    if n_stop is None:
-        return do((x, status, failed))
     return lax.cond(n < n_stop, do, lambda a: a, (x, status, failed))
 
 
@@ -230,20 +228,14 @@ def _segment_kernel(step_with_status, save_every, n_blocks, x, status, failed, n
 
     def one_particle(x, status, failed):
         def block(carry, b):
-            start = n0 + b * save_every
+            def step(c, j):
+                x, st, fl = c
+                n = n0 + b * save_every + j
+                # steps past n_stop (the overshoot of the last segment) are skipped by a cond on
+                # the unbatched step index: no work is done for them
+                return _advance(step_with_status, x, st, fl, n, h, n_stop), None
 
-            def steps(masked):
-                def step(c, j):
-                    x, st, fl = c
-                    n = start + j
-                    return _advance(step_with_status, x, st, fl, n, h, n_stop if masked else None), None
-
-                return lambda c: lax.scan(step, c, jnp.arange(save_every))[0]
-
-            # a whole block inside [0, n_stop) runs unmasked; the block with the end masks each
-            # step; blocks past the end are skipped
-            which = jnp.where(start + save_every <= n_stop, 0, jnp.where(start < n_stop, 1, 2))
-            carry = lax.switch(which, [steps(False), steps(True), lambda c: c], carry)
+            carry, _ = lax.scan(step, carry, jnp.arange(save_every))
             return carry, carry[0]
 
         carry, saved = lax.scan(block, (x, status, failed), jnp.arange(n_blocks))
@@ -356,7 +348,7 @@ def integrate(
     t0:
         Initial time (the fields are autonomous; ``ts = t0 + h * steps``).
     chunk_size:
-        Particles per compiled call; ``None`` chooses one from a 64 MiB budget (≤ 32768).
+        Particles per compiled call; ``None`` chooses one from a 64 MiB budget (≤ 8192).
     progress:
         ``True`` / ``False`` / ``"auto"`` (a rich bar when the run is expected to exceed ~1 s).
     segment_blocks:

@@ -1,0 +1,192 @@
+"""vpforms.diagnostics: log |det J| by forward-mode AD, invariant drift, order fit, Poincaré sections.
+
+Every expected value is computed here: matrix powers for linear fields, exact rotations, synthetic
+error curves built with a known slope, the invariant of the integrable ABC flow.
+"""
+
+from __future__ import annotations
+
+import math
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from scipy.linalg import expm
+
+from vpforms.diagnostics import (
+    fit_order,
+    invariant_drift,
+    log_det,
+    observed_order,
+    poincare_section,
+    reference_solution,
+)
+from vpforms.integrate import RK4, integrate
+
+from .test_integrate import SE, abc
+
+
+class Linear:
+    """x' = M x as a callable field with its matrix (for the exact reference)."""
+
+    def __init__(self, M):
+        self.linear_matrix = np.asarray(M, dtype=float)
+        self._M = jnp.asarray(self.linear_matrix)
+        self.name = "linear"
+
+    def __call__(self, x):
+        return self._M @ x
+
+
+# rotation about x₃ (traceless): x₁ + i x₂ turns at unit angular speed, x₃ is constant
+ROT = Linear([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 0.0]])
+# a generic traceless matrix
+M3 = np.array([[0.3, -1.0, 0.4], [0.8, -0.1, 0.2], [-0.5, 0.6, -0.2]])
+LIN = Linear(M3)
+RK_ROT, RK_LIN = RK4(ROT), RK4(LIN)
+
+
+def test_log_det_matches_the_rk4_stability_matrix_and_vp_is_rounding():
+    h, n = 0.1, 30
+    x0 = np.random.default_rng(0).normal(size=(4, 3))
+    ld = log_det(RK_LIN, x0, h, n)
+    # RK4 on x' = Mx is x ↦ R x with R = Σ_{k≤4} (hM)^k/k!: log|det R| per step, exactly
+    hM = h * M3
+    R = sum(np.linalg.matrix_power(hM, k) / math.factorial(k) for k in range(5))
+    expected = np.log(abs(np.linalg.det(R)))
+    assert abs(expected) > 1e-9  # RK4 is not volume preserving here
+    # log det of a matrix near I: absolute rounding ~1e-16 per step
+    np.testing.assert_allclose(ld.per_step, expected, rtol=0, atol=2e-16 * 8)
+    np.testing.assert_allclose(ld.accumulated[:, -1], n * expected, rtol=0, atol=n * 2e-16 * 8)
+    np.testing.assert_allclose(ld.ts, h * np.arange(n + 1))
+    assert ld.per_step.shape == (4, n) and ld.accumulated.shape == (4, n + 1)
+    # the generating-form method: det ≡ 1 to rounding along a whole trajectory
+    vp = log_det(SE, np.random.default_rng(1).uniform(0, 2 * np.pi, (3, 3)), 0.1, 50)
+    assert vp.max_abs < 1e-12 and np.all(vp.status == 0)
+
+
+def test_invariant_drift():
+    # exact rotation states: x₁² + x₂² and x₃ are invariants, x₁ is not
+    t = np.linspace(0.0, 3.0, 7)
+    xs = np.stack([np.cos(t), np.sin(t), np.full_like(t, 0.5)], axis=-1)
+    inv = {"r2": lambda x: x[0] ** 2 + x[1] ** 2, "x3": lambda x: x[2], "x1": lambda x: x[0]}
+    d = invariant_drift(inv, xs)
+    assert np.max(np.abs(d["r2"])) < 1e-15 and np.max(np.abs(d["x3"])) == 0
+    np.testing.assert_allclose(d["x1"], np.cos(t) - 1.0, atol=1e-15)
+    d2 = invariant_drift(inv, np.stack([xs, 2 * xs]), relative=True)
+    assert d2["x1"].shape == (2, 7)
+    np.testing.assert_allclose(d2["x1"][1], (2 * np.cos(t) - 2.0) / 2.0, atol=1e-15)
+
+
+def test_fit_order_ignores_plateau_and_preasymptotic_points():
+    hs = 0.4 / 2.0 ** np.arange(10)
+    p = 3.0
+    err = 2.0 * hs**p
+    err[0] *= 7.0  # pre-asymptotic at the largest step
+    err = np.maximum(err, 3e-14 * (1 + np.arange(10) % 2))  # round-off plateau at small h
+    fit = fit_order(hs, err)
+    assert abs(fit.order - p) < 1e-6
+    on_plateau = np.sort(err)[:1]
+    assert not fit.used[np.argsort(hs)][0]  # the smallest h sits on the plateau
+    assert fit.used.sum() >= 5
+    np.testing.assert_allclose(fit.predict(hs[3]), 2.0 * hs[3] ** p, rtol=1e-6)
+    del on_plateau
+    with pytest.raises(ValueError):
+        fit_order([0.1, 0.05], [1e-17, 1e-17])
+
+
+def test_observed_order_rk4_and_first_order_vp_method():
+    x0 = np.random.default_rng(2).normal(size=(3, 3))
+    T = 1.0
+    ref = reference_solution(LIN, x0, T)
+    np.testing.assert_allclose(ref, x0 @ expm(T * M3).T, rtol=0, atol=1e-14)  # exact branch
+    fit = observed_order(RK_LIN, x0, T, [0.2, 0.1, 0.05, 0.025])
+    assert abs(fit.order - 4) < 0.15
+    fit1 = observed_order(SE, np.random.default_rng(3).uniform(0, 6, (2, 3)), T, [0.1, 0.05, 0.025, 0.0125])
+    assert abs(fit1.order - 1) < 0.1  # reference: DOP853 from SE.field (the ABC flow)
+
+
+def test_poincare_crossings_of_a_rotation_land_on_the_circle():
+    # x' = (−x₂, x₁, 0): every crossing of x₂ = 0 upward is at (r, 0, x₃(0)), r = |(x₁, x₂)|
+    x0 = np.array([[1.0, 0.3, 0.2], [0.4, -0.2, -1.0], [-2.0, 0.5, 3.0]])
+    r = np.hypot(x0[:, 0], x0[:, 1])
+    h, n = 0.05, 800  # t = 40: six turns
+    sec = poincare_section(RK_ROT, x0, h, n, axis=1, value=0.0, direction=1)
+    assert sec.points.shape[0] == sec.counts.sum() and sec.dropped == 0
+    th0 = np.arctan2(x0[:, 1], x0[:, 0])  # crossings at t = 2πk − θ₀ ∈ (0, 40]
+    np.testing.assert_array_equal(sec.counts, np.floor((40 + th0) / (2 * np.pi)) - np.floor(th0 / (2 * np.pi)))
+    p = sec.points
+    assert np.max(np.abs(p[:, 1])) < 1e-13  # on the plane
+    err_step = np.max(np.abs(p[:, 0] - r[sec.particle]))
+    assert err_step < 1e-6  # RK4 accuracy: interpolation on the step family keeps the order
+    np.testing.assert_array_equal(p[:, 2], x0[sec.particle, 2])
+    # crossing times: θ(t) = θ₀ + t hits 2πk
+    k = np.round((sec.t + th0[sec.particle]) / (2 * np.pi))
+    np.testing.assert_allclose(sec.t, 2 * np.pi * k - th0[sec.particle], atol=1e-6)
+    assert np.all((sec.theta >= 0) & (sec.theta <= 1))
+    # the chord (order-1 interpolation) cuts inside the circle: a visibly larger error
+    lin = poincare_section(RK_ROT, x0, h, n, axis=1, value=0.0, direction=1, interpolation="linear")
+    err_lin = np.max(np.abs(lin.points[:, 0] - r[lin.particle]))
+    assert err_lin > 100 * err_step
+    # downward crossings are on the other half-line
+    down = poincare_section(RK_ROT, x0, h, n, axis=1, value=0.0, direction=-1)
+    assert np.all(down.points[:, 0] < 0)
+    both = poincare_section(RK_ROT, x0, h, n, axis=1, value=0.0, direction=0)
+    assert both.points.shape[0] == sec.points.shape[0] + down.points.shape[0]
+
+
+def test_poincare_modulo_period_integrable_abc():
+    # ABC with C = 0 is integrable: I = A cos x₃ + B sin x₁ is constant along orbits, so the
+    # crossings of x₂ = 0 (mod 2π) lie on the level curves I(x₁, x₃) = I(x(0))
+    A, B = 1.0, math.sqrt(2 / 3)
+
+    def field(x):
+        return jnp.stack([A * jnp.sin(x[2]), B * jnp.sin(x[0]) + A * jnp.cos(x[2]), B * jnp.cos(x[0])])
+
+    x0 = np.random.default_rng(5).uniform(0, 2 * np.pi, (6, 3))
+    I0 = A * np.cos(x0[:, 2]) + B * np.sin(x0[:, 0])
+    sec = poincare_section(RK4(field), x0, 0.05, 2000, axis=1, value=0.0, direction=0, period=2 * np.pi)
+    assert sec.points.shape[0] > 20
+    p = sec.points
+    np.testing.assert_allclose(np.mod(p[:, 1] + 1e-9, 2 * np.pi), 1e-9, atol=1e-8)  # x₂ ≡ 0 mod 2π
+    I = A * np.cos(p[:, 2]) + B * np.sin(p[:, 0])
+    assert np.max(np.abs(I - I0[sec.particle])) < 1e-7
+    uv = sec.coordinates()
+    assert uv.shape == (p.shape[0], 2) and uv.min() >= 0 and uv.max() < 2 * np.pi
+
+
+def test_poincare_vp_method_points_are_steps_of_the_method(tmp_path):
+    # with interpolation="step" a crossing is Ψ_{θh}(x_n): check it against the method itself
+    x0 = np.random.default_rng(7).uniform(0, 2 * np.pi, (4, 3))
+    h = 0.1
+    sec = poincare_section(SE, x0, h, 600, axis=2, value=1.0, direction=1, period=2 * np.pi)
+    assert sec.points.shape[0] > 0
+    sol = integrate(SE, x0, h, 600, save_every=1, progress=False)
+    x_n = sol.xs[sec.particle, sec.step]
+    again = np.stack([np.asarray(SE.step_with_status(jnp.asarray(x), th * h)[0])
+                      for x, th in zip(x_n, sec.theta)])
+    np.testing.assert_allclose(sec.points, again, rtol=0, atol=1e-12)
+    assert np.max(np.abs(np.mod(sec.points[:, 2] - 1.0 + 1.0, 2 * np.pi) - 1.0)) < 1e-12
+    path = tmp_path / "c.csv"
+    sec.to_csv(str(path))
+    data = np.loadtxt(path, delimiter=",", skiprows=1)
+    assert data.shape == (sec.points.shape[0], 9)
+
+
+def test_poincare_bad_arguments():
+    with pytest.raises(ValueError):
+        poincare_section(RK_ROT, np.zeros(3), 0.1, 10, axis=3)
+    with pytest.raises(ValueError):
+        poincare_section(RK_ROT, np.zeros(3), 0.1, 10, direction=2)
+    with pytest.raises(ValueError):
+        poincare_section(RK_ROT, np.zeros(3), 0.1, 10, interpolation="cubic")
+    with pytest.raises(ValueError):
+        poincare_section(RK_ROT, np.zeros(3), 0.1, 10, period=-1.0)
+
+
+def test_abc_field_helper_is_divergence_free():
+    # the ABC helper used above is the field of the tests' SE+SE method
+    import jax
+
+    x = jnp.asarray(np.random.default_rng(0).uniform(0, 6, 3))
+    assert abs(float(jnp.trace(jax.jacfwd(abc)(x)))) < 1e-15
