@@ -18,24 +18,26 @@ from .._map import GeneratingMap
 from ._base import GeneratingMethod
 from ._lagrangian import discrete_lagrangian
 from ._representatives import REPRESENTATIVES
-from .se_dl import dl_stage_one
+from .se_dl import DLPredictor, dl_stage_one
 
 __all__ = ["DLDL"]
 
 
-class DLDL(GeneratingMethod):
+class DLDL(DLPredictor, GeneratingMethod):
     """DL+DL (eq:case3, corrected): order 1, not symmetric; ``theta`` ∈ {0, ½}; ``printed=True``
-    gives the paper's signs (volume preserving, not consistent)."""
+    gives the paper's signs (volume preserving, not consistent); ``fast=True`` evaluates the two
+    θ-stages directly (see :class:`vpforms._methods.se_dl.DLPredictor`)."""
 
     name = "DL+DL"
 
     def __init__(self, field: Any, *, theta: float = 0.0, printed: bool = False,
-                 newton: dict | None = None):
+                 fast: bool = False, newton: dict | None = None):
         self.field = field
         self.case = REPRESENTATIVES["DL+DL"]
         self.order, self.symmetric = 1, False
         self.theta, self.printed = float(theta), bool(printed)
         self.newton = {**GeneratingMethod.newton, **(newton or {})}
+        self._check_fast(fast)
         if printed:
             self.name = "DL+DL(printed)"
         self._L1, self._s1 = dl_stage_one(field, self.theta, self.newton, self.printed)
@@ -43,6 +45,7 @@ class DLDL(GeneratingMethod):
         kappa = 1.0 if printed else -1.0  # H²(q, p; X₂) = κ·G²(q, X₂, p), (q, p) = (x₁, x₃)
         self._L2 = discrete_lagrangian(lambda q, p, c: kappa * G2(q, c, p), self.theta, self.newton)
         self._s2 = -1.0 if printed else 1.0  # Φ = s2·L_d²
+        self._init_predictor(self.theta)
 
     def generating_map(self, h, x=None):
         if x is None:
@@ -52,9 +55,9 @@ class DLDL(GeneratingMethod):
         g1, g2 = -s1 * x[2], x[2] / s2
 
         def phi(X2, x2, x1):  # φ(Y₃, y₂, y₃) = φ(X₂, x₂, x₁)
-            return s1 * L1(x2, X2, x1, h, g1)[0]
+            return s1 * L1(x2, X2, x1, h, g1)
 
         def Phi(X2, X1, x1):  # Φ(Y₃, Y₂, y₃) = Φ(X₂, X₁, x₁) = s2·L_d²(x₁, X₁; X₂)
-            return s2 * L2(x1, X1, X2, h, g2)[0]
+            return s2 * L2(x1, X1, X2, h, g2)
 
         return GeneratingMap(phi, Phi, self.case, **self.newton)

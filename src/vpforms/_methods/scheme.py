@@ -48,8 +48,9 @@ def representative_method(field: Any, cls: str, **options) -> Method:
 
     Options: ``theta`` (DL classes), ``printed`` (SE+DL, DL+DL, S1), ``variant`` (S1),
     ``recipe`` ("generating" | "correction" for S1/S2; default: generating for linear fields,
-    correction otherwise), ``integral``/``quadrature_n`` (correction maps), ``fast`` (SE+SE),
-    ``newton`` (Newton controls).
+    correction otherwise), ``integral``/``quadrature_n`` (correction maps),
+    ``newton`` (Newton controls). ``fast`` (SE+SE, SE+DL, DL+DL) evaluates the step directly
+    (shears / θ-stages) instead of through the engine — the same map, tested equal to it.
     """
     cls = class_name(cls)
     newton = options.pop("newton", None)
@@ -58,10 +59,10 @@ def representative_method(field: Any, cls: str, **options) -> Method:
         fast = options.get("fast", False)
         return (SESEFast if fast else SESE)(field, newton=newton)
     if cls in ("SE+DL", "DL+DL"):
-        _only(options, cls, ("theta", "printed"))
+        _only(options, cls, ("theta", "printed", "fast"))
         M = SEDL if cls == "SE+DL" else DLDL
         return M(field, theta=options.get("theta", 0.0), printed=options.get("printed", False),
-                 newton=newton)
+                 fast=options.get("fast", False), newton=newton)
     # S1, S2
     _only(options, cls, ("recipe", "variant", "printed", "integral", "quadrature_n"))
     recipe = options.get("recipe")

@@ -15,9 +15,11 @@ from __future__ import annotations
 
 from typing import Any
 
+import jax.numpy as jnp
+
 from .._map import GeneratingMap
-from ._base import GeneratingMethod
-from ._lagrangian import discrete_lagrangian
+from ._base import GeneratingMethod, merge_status
+from ._lagrangian import discrete_lagrangian, dl_stage
 from ._representatives import REPRESENTATIVES
 
 __all__ = ["SEDL"]
@@ -34,7 +36,66 @@ def dl_stage_one(field, theta: float, newton: dict, printed: bool):
     return L1, s
 
 
-class SEDL(GeneratingMethod):
+class DLPredictor:
+    """Initial guesses for the DL classes: the stages of the map written as nested scalar roots
+    (:func:`dl_stage`), stage 1 for H¹ = G¹ in (x₂, x₃) and stage 2 for H² = −G² in (x₁, x₃).
+
+    The step itself is the engine's solve; a guess at the solution only keeps its Newton iteration
+    from crossing the fold of L_d (where the DL twist fails) when the trajectory passes close to it.
+    The printed variants keep the Euler guess. With ``fast=True`` the step *is* the stage form
+    (tested equal to the engine where the twist holds): a composition of two exactly symplectic
+    θ-stages with a frozen coordinate, hence exactly volume preserving, and defined also across the
+    fold where the DL generating form ceases to exist.
+    """
+
+    @property
+    def guess_is_solution(self) -> bool:
+        return not self.printed
+
+    def _init_predictor(self, theta2: float):
+        G1, G2 = self.field.dl_potentials
+        H1 = lambda q, p, c: G1(c, q, p)  # noqa: E731
+        H2 = lambda q, p, c: -G2(q, c, p)  # noqa: E731
+        n = self.newton
+        self._st = (dl_stage(H1, self.theta, n), dl_stage(H2, theta2, n))
+        self._st_inv = (dl_stage(H1, 1.0 - self.theta, n), dl_stage(H2, 1.0 - theta2, n))
+
+    def _stages(self, x, h):
+        """The step as its two stages (the direct path): (X, status, iterations)."""
+        X2, pt, s1, n1 = self._st[0](x[1], x[2], x[0], h)
+        X1, X3, s2, n2 = self._st[1](x[0], pt, X2, h)
+        X = jnp.stack([X1, X2, X3])
+        return X, merge_status(s1, s2, jnp.where(jnp.all(jnp.isfinite(X)), 0, 3)), n1 + n2
+
+    def _stages_inverse(self, X, h):
+        x1, pt, s1, n1 = self._st_inv[1](X[0], X[2], X[1], -h)
+        x2, x3, s2, n2 = self._st_inv[0](X[1], pt, x1, -h)
+        x = jnp.stack([x1, x2, x3])
+        return x, merge_status(s1, s2, jnp.where(jnp.all(jnp.isfinite(x)), 0, 3)), n1 + n2
+
+    def _guess(self, x, h):
+        return self.euler_guess(x, h) if self.printed else self._stages(x, h)[0]
+
+    def _guess_inverse(self, X, h):
+        return self.euler_guess(X, -h) if self.printed else self._stages_inverse(X, h)[0]
+
+    def _forward(self, x, h):
+        return self._stages(x, h) if self.fast else super()._forward(x, h)
+
+    def _backward(self, X, h):
+        return self._stages_inverse(X, h) if self.fast else super()._backward(X, h)
+
+    @property
+    def via_engine(self) -> bool:
+        return not self.fast
+
+    def _check_fast(self, fast: bool):
+        if fast and self.printed:
+            raise ValueError("fast=True evaluates the corrected stages; the printed variant has none")
+        self.fast = bool(fast)
+
+
+class SEDL(DLPredictor, GeneratingMethod):
     """SE+DL (eq:case4, corrected): order 1, not symmetric.
 
     Parameters
@@ -44,21 +105,25 @@ class SEDL(GeneratingMethod):
     printed:
         use the paper's printed sign φ = +L_d¹ (volume preserving, *not* consistent) — only to
         demonstrate the erratum.
+    fast:
+        evaluate the step as its two stages (:class:`DLPredictor`) instead of the engine.
     """
 
     name = "SE+DL"
 
     def __init__(self, field: Any, *, theta: float = 0.0, printed: bool = False,
-                 newton: dict | None = None):
+                 fast: bool = False, newton: dict | None = None):
         self.field = field
         self.case = REPRESENTATIVES["SE+DL"]
         self.order, self.symmetric = 1, False
         self.theta, self.printed = float(theta), bool(printed)
         self.newton = {**GeneratingMethod.newton, **(newton or {})}
+        self._check_fast(fast)
         if printed:
             self.name = "SE+DL(printed)"
         self._L1, self._s1 = dl_stage_one(field, self.theta, self.newton, self.printed)
         _, self._G2 = field.dl_potentials
+        self._init_predictor(0.0)  # the SE stage for vf2(G²) is the θ = 0 stage
 
     def generating_map(self, h, x=None):
         if x is None:
@@ -67,7 +132,7 @@ class SEDL(GeneratingMethod):
         p_guess = -s1 * x[2]  # volpot1: p₀ = −∂_{q₀}L_d¹ = −s1·x₃... so p̄ ≈ −s1·x₃
 
         def phi(X2, x2, x1):  # φ(Y₃, y₂, y₃) = φ(X₂, x₂, x₁)
-            return s1 * L1(x2, X2, x1, h, p_guess)[0]
+            return s1 * L1(x2, X2, x1, h, p_guess)
 
         def Phi(X2, X3, x1):  # Φ(Y₃, Y₂, y₃) = Φ(X₂, X₃, x₁) = −(−x₁X₃ + hG²(x₁, X₂, X₃)), sign +1
             return x1 * X3 - h * G2(x1, X2, X3)

@@ -61,6 +61,7 @@ class SESEFast(SESE):
     """
 
     name = "SE+SE(fast)"
+    via_engine = False
 
     def __init__(self, field: Any, *, newton: dict | None = None):
         super().__init__(field, newton=newton)

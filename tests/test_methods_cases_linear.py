@@ -1,0 +1,7 @@
+"""All 36 cases on a random traceless linear field (issue #5): see test_methods_cases_abc.py."""
+
+from .test_methods_cases_abc import check_all_cases
+
+
+def test_all_36_cases_linear():
+    check_all_cases("linear")
