@@ -33,6 +33,8 @@ from ._methods import (
     compose,
     scheme,
 )
+from .integrate import RK4, Solution, integrate  # noqa: E402  (the function shadows the module name)
+from . import diagnostics  # noqa: E402
 
 __version__ = "0.1.0"
 
@@ -64,4 +66,8 @@ __all__ = [
     "S2",
     "QuispelCorrection",
     "RecipeError",
+    "integrate",
+    "Solution",
+    "RK4",
+    "diagnostics",
 ]
