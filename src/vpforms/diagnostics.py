@@ -515,6 +515,7 @@ def poincare_section(
                     fn, L, K, axis, direction, P, x, st, cnt, bx, bn, bl, jnp.asarray(done), hj, vj
                 )
                 done += L
+                x.block_until_ready()  # asynchronous dispatch: sync so the bar tracks real work
                 bar.update((hi - lo) * L)
             cnt_h = np.asarray(cnt)[: hi - lo]
             counts[lo:hi] = cnt_h

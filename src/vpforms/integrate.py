@@ -270,6 +270,13 @@ class _StepFn:
         return isinstance(other, _StepFn) and other.method is self.method
 
 
+def _is_terminal() -> bool:
+    """Whether rich would animate a bar here (not in pipes, logs or captured test output)."""
+    from rich.console import Console
+
+    return Console(stderr=True).is_terminal
+
+
 class _Bar:
     """A rich progress bar that appears only for runs expected to take more than ~1 s."""
 
@@ -290,6 +297,8 @@ class _Bar:
             TimeRemainingColumn,
         )
 
+        from rich.console import Console
+
         self.progress = Progress(
             TextColumn("[bold]{task.description}"),
             BarColumn(),
@@ -298,6 +307,7 @@ class _Bar:
             TimeElapsedColumn(),
             TimeRemainingColumn(),
             transient=True,
+            console=Console(stderr=True),
         )
         self.progress.start()
         self.task = self.progress.add_task(self.label, total=self.total, completed=self.done)
@@ -310,7 +320,9 @@ class _Bar:
             elapsed = time.perf_counter() - self.t_start
             frac = self.done / max(self.total, 1)
             expected = elapsed / max(frac, 1e-12)
-            if self.mode is True or (elapsed > 0.25 and expected > 1.0 and frac < 0.9):
+            if self.mode is True or (
+                elapsed > 0.25 and expected > 1.0 and frac < 0.9 and _is_terminal()
+            ):
                 self._start()
         if self.progress is not None:
             self.progress.update(self.task, completed=self.done)
@@ -350,7 +362,8 @@ def integrate(
     chunk_size:
         Particles per compiled call; ``None`` chooses one from a 64 MiB budget (≤ 8192).
     progress:
-        ``True`` / ``False`` / ``"auto"`` (a rich bar when the run is expected to exceed ~1 s).
+        ``True`` / ``False`` / ``"auto"``: a rich bar on stderr; ``"auto"`` shows it on a terminal
+        when the run is expected to take more than ~1 s.
     segment_blocks:
         Save-blocks per compiled call inside a chunk (the progress granularity); ``None`` = auto.
     """
@@ -420,6 +433,7 @@ def integrate(
             for s in range(n_segments):
                 n0 = s * L * k
                 x, st, fl, saved = kernel(x, st, fl, jnp.asarray(n0), hj, stop)
+                x.block_until_ready()  # dispatch is asynchronous: sync so the bar tracks real work
                 if save_every is not None:
                     b_lo = s * L
                     b_hi = min(b_lo + L, n_blocks)
