@@ -149,6 +149,19 @@ def _time(fn, repeats):
     return best, out
 
 
+def _quote_in_readme(path: str, lines: list[str]) -> None:
+    """Replace the text between the bench markers of ``path`` by ``lines``."""
+    start, end = "<!-- bench:start -->", "<!-- bench:end -->"
+    with open(path) as f:
+        text = f.read()
+    if start not in text or end not in text:
+        raise SystemExit(f"{path} has no {start} … {end} block")
+    head, rest = text.split(start, 1)
+    _, tail = rest.split(end, 1)
+    with open(path, "w") as f:
+        f.write(head + start + "\n" + "\n".join(lines) + "\n" + end + tail)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--sizes", default="1000,100000,1000000")
@@ -162,6 +175,9 @@ def main(argv=None) -> int:
     ap.add_argument("--scipy-max-n", type=int, default=10**6, help="skip SciPy above this N")
     ap.add_argument("--out", default=os.path.join(os.path.dirname(__file__), "results.md"))
     ap.add_argument("--smoke", action="store_true", help="tiny sizes for CI; no timing claims")
+    ap.add_argument("--readme", default=None,
+                    help="also replace the block between <!-- bench:start --> and <!-- bench:end --> "
+                         "in this file (e.g. README.md) with the table")
     args = ap.parse_args(argv)
     if args.smoke:
         args.sizes, args.T, args.repeats, args.chunk = "16,40", 1.0, 1, 16
@@ -318,6 +334,9 @@ def main(argv=None) -> int:
         f.write("\n".join(lines) + "\n")
     print("\n".join(lines))
     print(f"\nwritten: {args.out}")
+    if args.readme:
+        _quote_in_readme(args.readme, lines[2:])
+        print(f"quoted in: {args.readme}")
     return 0
 
 

@@ -267,7 +267,7 @@ def _cmd_run(args, console) -> int:
         "saved states per particle": int(sol.ts.size),
         "failed particles": sol.n_failed,
         "wall time (s, incl. compile)": round(sol.stats["wall_s"], 3),
-        "ns per particle-step": round(sol.stats["ns_per_particle_step"], 1),
+        "ns per particle-step (incl. compile)": round(sol.stats["ns_per_particle_step"], 1),
     }
     if prob.invariants:
         from .diagnostics import invariant_drift
