@@ -27,7 +27,7 @@ from ._symbols import X, h, x
 from .forms import case_forms
 from .recipes import _field, as_matrix, check_dependencies, linear_field
 
-__all__ = ["ConsistencyResult", "consistency", "solve_linear_map", "generic_traceless_matrix"]
+__all__ = ["ConsistencyResult", "consistency", "generic_traceless_matrix"]
 
 
 def generic_traceless_matrix() -> sp.Matrix:
@@ -96,50 +96,6 @@ def _lm_residuals(case: Case, phi, Phi, sign: int | None):
     return cf, (E1, E2, E3)
 
 
-def _solve_linear_in(E: sp.Expr, v: sp.Symbol) -> sp.Expr | None:
-    """The solution of E(v) = 0 if E is affine in v with a non-zero slope, else None."""
-    slope = sp.cancel(sp.diff(E, v))
-    if slope == 0 or slope.has(v):
-        return None
-    return sp.cancel(-E.xreplace({v: 0}) / slope)
-
-
-def solve_linear_map(case: Case, phi, Phi, sign: int | None = None):
-    """Solve the three equations in sequence (X₋ from volpot1, X∘ from volpot2, X₊ from volpot3)
-    when each is linear in its unknown; returns X = (X1, X2, X3) as expressions, or None."""
-    cf, (E1, E2, E3) = _lm_residuals(case, phi, Phi, sign)
-    Xp, Xc, Xm = cf.X_roles
-    Xm_sol = _solve_linear_in(E1, Xm)
-    if Xm_sol is None:
-        return None
-    Xc_sol = _solve_linear_in(sp.cancel(E2.xreplace({Xm: Xm_sol})), Xc)
-    if Xc_sol is None:
-        return None
-    Xp_sol = sp.cancel((E3 + Xp).xreplace({Xm: Xm_sol, Xc: Xc_sol}))
-    sol = {Xp: Xp_sol, Xc: Xc_sol, Xm: Xm_sol}
-    return tuple(sol[v] for v in X)
-
-
-def _taylor_rational(expr: sp.Expr, n: int) -> list[sp.Expr] | None:
-    """Taylor coefficients c_0..c_n in h of a rational function (None if it has a pole at h=0)."""
-    num, den = sp.fraction(sp.cancel(sp.together(expr)))
-    P = sp.Poly(sp.expand(num), h)
-    Q = sp.Poly(sp.expand(den), h)
-    p = [P.coeff_monomial(h**k) for k in range(n + 1)]
-    q = [Q.coeff_monomial(h**k) for k in range(n + 1)]
-    if sp.expand(q[0]) == 0:
-        return None
-    c: list[sp.Expr] = []
-    for k in range(n + 1):
-        ck = (p[k] - sum(q[j] * c[k - j] for j in range(1, k + 1))) / q[0]
-        c.append(sp.cancel(ck))
-    return c
-
-
-def _mat_zero(M: sp.Matrix) -> bool:
-    return all(sp.cancel(e) == 0 for e in M)
-
-
 def consistency(
     case: Case | tuple,
     phi,
@@ -184,77 +140,107 @@ def consistency(
     cf = case_forms(case)
 
     if matrix is not None:
-        lin = _linear_system(case, phi, Phi, sign)
+        lin = _linear_system(case, sp.sympify(phi), sp.sympify(Phi), sign)
         if lin is not None:
             return _linear_result(case, lin, matrix, n_terms)
     return _series_result(case, phi, Phi, comps, sign, n_terms)
 
 
 def _linear_system(case, phi, Phi, sign):
-    """E = P X + Q x with polynomial P, Q (rows cleared of denominators and of common powers of
-    h), or None if some equation is not linear homogeneous in (x, X)."""
+    """E = P X + Q x with P, Q polynomial matrices (elements of a SymPy polynomial ring over
+    Q in x, X, h and the parameters), each row cleared of its denominator and of the largest power
+    of h dividing it; or None if some equation is not linear and homogeneous in (x, X)."""
     cf, E = _lm_residuals(case, phi, Phi, sign)
-    P = sp.zeros(3, 3)
-    Q = sp.zeros(3, 3)
-    for i, e in enumerate(E):
-        num, den = sp.fraction(sp.together(e))
-        if den.has(*x, *X):
+    params = sorted(
+        set().union(*(e.free_symbols for e in E)) - set(x) - set(X) - {h}, key=str
+    )
+    try:
+        K = sp.field((*x, *X, h, *params), sp.QQ)[0]
+        fracs = [K.from_expr(e) for e in E]
+    except (sp.PolynomialError, ValueError, TypeError, sp.CoercionFailed):
+        return None  # not rational in the variables: leave it to the series path
+    R = K.ring
+    zero6 = (0,) * 6
+    P = [[R.zero] * 3 for _ in range(3)]
+    Q = [[R.zero] * 3 for _ in range(3)]
+    for i, f in enumerate(fracs):
+        num, den = f.numer, f.denom
+        if any(m[:6] != zero6 for m in den.monoms()):
             return None
-        num = sp.expand(num)
-        try:
-            poly = sp.Poly(num, *x, *X)
-        except sp.PolynomialError:
-            return None
-        if poly.total_degree() > 1 or poly.coeff_monomial(1) != 0:
-            return None
-        row = [poly.coeff_monomial(v) for v in x + X]
-        # divide the row by the largest power of h dividing all its entries (regular at h = 0)
-        vals = [min(m[0] for m in sp.Poly(c, h).monoms()) if c != 0 else 10**9 for c in row]
-        v = min(vals)
-        if v == 10**9:
-            return None
-        row = [sp.expand(sp.cancel(c / h**v)) for c in row]
-        for j in range(3):
-            Q[i, j] = row[j]
-            P[i, j] = row[3 + j]
-    return P, Q
+        if not num or any(sum(m[:6]) != 1 for m in num.monoms()):
+            return None  # not linear homogeneous in (x, X)
+        v = min(m[6] for m in num.monoms())  # divide the row by h^v: regular at h = 0
+        for j in range(6):
+            cj = R.from_dict(
+                {m[:j] + (0,) + m[j + 1:6] + (m[6] - v,) + m[7:]: c
+                 for m, c in num.items() if m[j] == 1}
+            )
+            (Q if j < 3 else P)[i][j % 3] = cj
+    return K, P, Q
 
 
-def _poly_coeffs(M: sp.Matrix, n: int) -> list[sp.Matrix]:
-    return [M.applyfunc(lambda e: sp.expand(e).coeff(h, k)) for k in range(n + 1)]
+def _det3(M):
+    return (M[0][0] * (M[1][1] * M[2][2] - M[1][2] * M[2][1])
+            - M[0][1] * (M[1][0] * M[2][2] - M[1][2] * M[2][0])
+            + M[0][2] * (M[1][0] * M[2][1] - M[1][1] * M[2][0]))
 
 
-def _linear_result(case, PQ, Am, n) -> ConsistencyResult:
-    P, Q = PQ  # P X + Q x = 0  ⇒  X = M(h) x, M = −P⁻¹Q
-    detP = sp.expand(P.det(method="berkowitz"))
-    detQ = sp.expand(Q.det(method="berkowitz"))
-    if detP == 0:  # the determining equations do not determine X (twist fails identically)
+def _adj3(M):
+    def cof(i, j):
+        r = [k for k in range(3) if k != i]
+        c = [k for k in range(3) if k != j]
+        minor = M[r[0]][c[0]] * M[r[1]][c[1]] - M[r[0]][c[1]] * M[r[1]][c[0]]
+        return minor if (i + j) % 2 == 0 else -minor
+
+    return [[cof(j, i) for j in range(3)] for i in range(3)]  # adj = cofactor matrixᵀ
+
+
+def _h_coeffs(p, zero):
+    """{k: coefficient of h^k} of a ring element (h is generator 6), h exponent set to 0."""
+    out: dict[int, dict] = {}
+    for m, c in p.items():
+        out.setdefault(m[6], {})[m[:6] + (0,) + m[7:]] = c
+    return {k: zero.ring.from_dict(d) for k, d in out.items()}
+
+
+def _linear_result(case, system, Am, n) -> ConsistencyResult:
+    K, P, Q = system  # P X + Q x = 0  ⇒  X = M(h) x, M = −P⁻¹Q
+    R = K.ring
+    detP, detQ = _det3(P), _det3(Q)
+    to_mat = lambda M: sp.Matrix(3, 3, lambda i, j: M[i][j].as_expr())  # noqa: E731
+    if not detP:  # the determining equations do not determine X (twist fails identically)
         nan = (sp.nan,) * 3
         return ConsistencyResult(case, True, False, False, -1, n, sp.nan, False, None, None, None,
                                  nan)
-    det = sp.cancel(-detQ / detP)  # det M = det(−Q)/det P
-    det_is_one = sp.expand(detQ + detP) == 0
-    # M = N / det P with N = −adj(P) Q: Taylor coefficients by power-series division, all
-    # polynomial arithmetic in h (and the symbols of A).
-    N = (-(P.adjugate() * Q)).applyfunc(sp.expand)
-    Dp = sp.Poly(detP, h)
-    v = min(m[0] for m in Dp.monoms())
-    Npolys = [sp.Poly(e, h) for e in N]
+    det_is_one = not (detQ + detP)  # det M = det(−Q)/det P
+    det = (sp.S.One if det_is_one else sp.S.NegativeOne if not (detQ - detP)
+           else (-K.field_new(detQ) / K.field_new(detP)).as_expr())
+    # M = N / det P with N = −adj(P) Q: Taylor coefficients in h by power-series division; the
+    # coefficients live in the fraction field (exact, automatically cancelled).
+    adj = _adj3(P)
+    N = [[-sum((adj[i][k] * Q[k][j] for k in range(3)), R.zero) for j in range(3)]
+         for i in range(3)]
+    Dk = _h_coeffs(detP, R.zero)
+    v = min(Dk)
     order, M0, M1 = -1, None, None
-    finite = all(e.is_zero or min(m[0] for m in e.monoms()) >= v for e in Npolys)
+    Nk = [[_h_coeffs(N[i][j], R.zero) for j in range(3)] for i in range(3)]
+    finite = all(not Nk[i][j] or min(Nk[i][j]) >= v for i in range(3) for j in range(3))
     if finite:
-        q = [Dp.coeff_monomial(h ** (v + k)) for k in range(n + 1)]
-        Mk = [sp.zeros(3, 3) for _ in range(n + 1)]
-        for idx, e in enumerate(Npolys):
-            p_ = [e.coeff_monomial(h ** (v + k)) for k in range(n + 1)]
-            c: list[sp.Expr] = []
-            for k in range(n + 1):
-                c.append(sp.cancel((p_[k] - sum(q[j] * c[k - j] for j in range(1, k + 1))) / q[0]))
-                Mk[k][idx] = c[k]
+        F = lambda p: K.field_new(p)  # noqa: E731
+        q = [F(Dk.get(v + k, R.zero)) for k in range(n + 1)]
+        C = [[[None] * (n + 1) for _ in range(3)] for _ in range(3)]
+        for i in range(3):
+            for j in range(3):
+                for k in range(n + 1):
+                    pk = F(Nk[i][j].get(v + k, R.zero))
+                    C[i][j][k] = (pk - sum((q[l] * C[i][j][k - l] for l in range(1, k + 1)),
+                                           K.zero)) / q[0]
+        Mk = [sp.Matrix(3, 3, lambda i, j: C[i][j][k].as_expr()) for k in range(n + 1)]
         M0, M1 = Mk[0], (Mk[1] if n >= 1 else None)
         Ak = sp.eye(3)
         for k in range(n + 1):  # exp(hA) = Σ A^k h^k / k!
-            if not _mat_zero(Mk[k] - Ak / sp.factorial(k)):
+            target = Ak / sp.factorial(k)
+            if any(C[i][j][k] != K.from_expr(target[i, j]) for i in range(3) for j in range(3)):
                 break
             order = k
             Ak = Ak * Am
@@ -267,7 +253,7 @@ def _linear_result(case, PQ, Am, n) -> ConsistencyResult:
         n_terms=n,
         det=det,
         det_is_one=det_is_one,
-        M=_LazyM(P, Q),
+        M=_LazyM(to_mat(P), to_mat(Q)),
         M0=M0,
         M1=M1,
         X=None,

@@ -14,7 +14,7 @@ determines, the stated Σ), needed to show which convention reproduces them.
 from __future__ import annotations
 
 import itertools
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import sympy as sp
 

@@ -36,7 +36,7 @@ from dataclasses import dataclass, field
 import sympy as sp
 
 from .._case import Case, cases
-from .._perm import Perm, as_perm
+from .._perm import Perm
 from ._symbols import X, x
 from .exterior import Form, d, dvar, wedge, wedge_all
 

@@ -17,9 +17,9 @@ from dataclasses import dataclass
 import sympy as sp
 
 from .._case import Case, cases
-from .._perm import FLIP, Perm
+from .._perm import Perm
 from ._symbols import X, Y, h, x, y
-from .forms import case_forms, generic_equations
+from .forms import generic_equations
 
 __all__ = [
     "PropositionCheck",
