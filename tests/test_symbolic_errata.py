@@ -66,7 +66,7 @@ def test_convention_errata(rows):
     failing = {r.what for r in _find(rows, "eq:notpzm", "printed (σ⁻¹)") if r.defects}
     assert failing == {"roles of printed eq:case3 (DL+DL)", "roles of printed eq:S2 (S2)"}
     assert all(r.passes for r in _find(rows, "eq:notpzm", "corrected (σ)"))
-    single = _find(rows, "prop:fivecases", "computed")
+    single = _find(rows, "prop:fivecases", "printed claim: one τ gives all 36")
     assert all(r.defects for r in single)  # no single τ reaches all 36 cases
     (five,) = _find(rows, "prop:fivecases", "corrected")
     assert five.passes

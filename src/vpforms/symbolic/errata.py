@@ -44,6 +44,7 @@ __all__ = [
     "errata_report",
     "roles_under_reading",
     "correction_map_matrix",
+    "TYPOGRAPHICAL",
 ]
 
 
@@ -244,8 +245,8 @@ def errata_rows(A=None, *, partial_fixes: bool = True) -> list[ErrataRow]:
         reach = _reachable(c)
         want = {d for d in cases() if d.tau in (c.tau, c.tau.inverse())}
         rows.append(ErrataRow(
-            "prop:fivecases", f"cases reached from {cls} by relabelling + adjunction",
-            "computed", None, None, "",
+            "prop:fivecases", f"cases reached from (1, τ) of {cls} by relabelling + adjunction",
+            "printed claim: one τ gives all 36", None, None, "",
             (f"reaches {len(reach)}/36",) if len(reach) < 36 else (), reach == want and len(reach) == 36,
             f"reached = {{σ⁻¹Σ ∈ {{τ, τ⁻¹}}}}: {reach == want}",
         ))
@@ -333,6 +334,20 @@ def render_errata(rows: list[ErrataRow], fmt: str = "markdown") -> str:
     raise ValueError(f"fmt must be 'markdown' or 'text', not {fmt!r}")
 
 
+#: Errata of MATH.md §6 that are typographical (no formula to measure); listed, not computed.
+TYPOGRAPHICAL: tuple[str, ...] = (
+    "def:conssol: the codomain should be C^∞(R³, R)",
+    "prop:trivperm: the proof omits the (σ, Σ) action",
+    "th:S2: cites eq:S1_quispel instead of eq:S2_quispel, and has unbalanced brackets",
+    "Appendix A: x̂₃(x₁, x₂, X₁) should be x̂₃(x₁, X₁, X₂)",
+    "Appendix A: the first C̃_{x₁} display has Δ a₁₃ + Δt a₁₂a₂₃k₂/k₁ where "
+    "h a₁₃ + h² a₁₂a₂₃k₂/k₁ is right (the origin of the k₃ error, measured above)",
+    "Appendix A: the AZ X₃ display misses h before a₃₂X₂ and has − where + is right before "
+    "h(a₁₂/a₁₃)(…)",
+    "Appendix B: (ffs2) line 2 should be X₂ = f₂(X₁, x₂, X₃), and 'const' should be 'const1'",
+)
+
+
 def errata_report(fmt: str = "markdown", A=None) -> str:
     """The full errata report as text: every printed formula with its measured defect."""
     rows = errata_rows(A)
@@ -344,4 +359,7 @@ def errata_report(fmt: str = "markdown", A=None) -> str:
     )
     n_bad = sum(not r.ok for r in rows)
     tail = f"\n{len(rows)} rows; {n_bad} disagree with the spec's verdict.\n"
+    bullet = "* " if fmt == "markdown" else "  - "
+    tail += ("\nTypographical errata (nothing to compute; listed for completeness):\n\n"
+             + "\n".join(bullet + t for t in TYPOGRAPHICAL) + "\n")
     return head + render_errata(rows, fmt) + tail
