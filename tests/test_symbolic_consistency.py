@@ -202,6 +202,20 @@ def test_generic_potentials_drive_the_numerical_engine():
     assert np.allclose(X_num, X_exact, rtol=0, atol=1e-12)
 
 
+def test_printed_s1_defects_are_classified():
+    """Printed eq:S1_quispel: M(h) has a 1/h pole; without the AZ 'Phi_denominator' fix M(0) is
+    finite but ≠ I; without the 'k3' fix M(0) = I but M'(0) ≠ A — and det ≡ 1 in all three."""
+    r = sym.consistency((q := R.s1_potentials(printed=True)).case, q.phi, q.Phi, G)
+    assert r.pole_at_0 and r.M0 is None and r.det_is_one
+    az = R.s1_potentials("az", fixes=set(R.S1_AZ_FIXES) - {"Phi_denominator"})
+    r = sym.consistency(az.case, az.phi, az.Phi, G)
+    assert not r.pole_at_0 and r.M0 is not None and r.M0 != sp.eye(3) and r.det_is_one
+    k3 = R.s1_potentials(fixes={"parentheses"})
+    r = sym.consistency(k3.case, k3.phi, k3.Phi, G)
+    assert r.identity_at_0 and not r.consistent and r.order == 0 and r.det_is_one
+    assert r.defects == ("inconsistent (M'(0) ≠ A)",)
+
+
 # -- bad input ------------------------------------------------------------------------------------
 def test_bad_input_raises_value_error_naming_the_problem():
     rec = R.s1_potentials()

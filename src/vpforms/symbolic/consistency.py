@@ -56,6 +56,8 @@ class ConsistencyResult:
         ``M.Q`` the polynomial system P X + Q x = 0), M0, M1 its Taylor coefficients.
     X:
         Series case: the solved map as truncated series in h (None in the linear case).
+    pole_at_0:
+        Linear case: M(h) has a pole at h = 0 (so M(0) does not exist).
     """
 
     case: Case
@@ -70,13 +72,19 @@ class ConsistencyResult:
     M0: sp.Matrix | None
     M1: sp.Matrix | None
     X: tuple[sp.Expr, sp.Expr, sp.Expr] | None
+    pole_at_0: bool = False
 
     @property
     def defects(self) -> tuple[str, ...]:
         """The failed properties, in the words of the errata report."""
         out = []
         if not self.consistent:
-            out.append("inconsistent" + ("" if self.identity_at_0 else " (M(0) ≠ I)"))
+            if self.linear:
+                why = (" (M(h) has a pole at h = 0)" if self.pole_at_0
+                       else " (M'(0) ≠ A)" if self.identity_at_0 else " (M(0) ≠ I)")
+            else:
+                why = " ((X − x)/h ↛ a)" if self.identity_at_0 else " (X(h = 0) ≠ x)"
+            out.append("inconsistent" + why)
         elif self.order != 1 and self.order < self.n_terms:
             out.append(f"order {self.order}")
         if not self.det_is_one:
@@ -257,6 +265,7 @@ def _linear_result(case, system, Am, n) -> ConsistencyResult:
         M0=M0,
         M1=M1,
         X=None,
+        pole_at_0=not finite,
     )
 
 
