@@ -83,3 +83,18 @@ def global_errors(step, x0, T: float, ns, ref):
             x = step(x, h)
         errs.append(float(np.max(np.abs(np.asarray(x) - ref))))
     return np.asarray(errs)
+
+
+def step_det(method):
+    """One compiled function per method: G(x (N,3), h) → (X, det J, status)."""
+
+    def one(p, h):
+        def fwd(z):
+            X, st, _ = method._forward(z, h)
+            return X, (X, st)
+
+        J, (X, st) = jax.jacfwd(fwd, has_aux=True)(p)
+        return X, jnp.linalg.det(J), st
+
+    f = jax.jit(jax.vmap(one, in_axes=(0, None)))
+    return lambda x, h: f(jnp.asarray(x, float), jnp.asarray(h, float))

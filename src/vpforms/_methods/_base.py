@@ -227,13 +227,18 @@ class GeneratingMethod(Method):
         ...
 
     def _forward(self, x, h):
-        return solve_from_guess(self, self.generating_map(h, x), x, self._guess(x, h))
+        return solve_from_guess(self, self.generating_map(h, x), x, self._guess(_sg(x), h))
 
     def _backward(self, X, h):
         # prop:permactvolpotinv: the inverse is (Σ, σ)·f_{Φ·p, φ·p} with the same sign
         m = self.generating_map(h, X).inverse()
-        return solve_from_guess(self, m, X, self._guess_inverse(X, h))
+        return solve_from_guess(self, m, X, self._guess_inverse(_sg(X), h))
 
+
+
+def _sg(x):
+    # an initial guess only selects the root: no derivative flows through it
+    return jax.lax.stop_gradient(x)
 
 
 def solve_from_guess(method, m, x, guess):
@@ -286,14 +291,14 @@ class Relabelled(Method):
     def _forward(self, x, h):
         m = self.generating_map(h, x) if getattr(self.base, "via_engine", False) else None
         if m is not None:  # one engine: the relabelled generating map itself
-            return solve_from_guess(self, m, x, self._guess(x, h))
+            return solve_from_guess(self, m, x, self._guess(_sg(x), h))
         Y, st, it = self.base._forward(x[self._pi_idx], h)
         return Y[self._pi_inv_idx], st, it
 
     def _backward(self, X, h):
         m = self.generating_map(h, X) if getattr(self.base, "via_engine", False) else None
         if m is not None:
-            return solve_from_guess(self, m.inverse(), X, self._guess_inverse(X, h))
+            return solve_from_guess(self, m.inverse(), X, self._guess_inverse(_sg(X), h))
         y, st, it = self.base._backward(X[self._pi_idx], h)
         return y[self._pi_inv_idx], st, it
 

@@ -14,6 +14,8 @@ from __future__ import annotations
 
 from typing import Any
 
+import jax
+
 from .._map import GeneratingMap
 from ._base import GeneratingMethod
 from ._lagrangian import discrete_lagrangian
@@ -52,7 +54,8 @@ class DLDL(DLPredictor, GeneratingMethod):
             raise ValueError("the DL potentials need the point x to select the roots p̄ of L_d")
         L1, s1, L2, s2 = self._L1, self._s1, self._L2, self._s2
         # volpot1: p₀¹ = −s1·x₃; volpot2 (sign −1): p₀² = −s1·p₁¹/s2 ≈ x₃/s2
-        g1, g2 = -s1 * x[2], x[2] / s2
+        x3 = jax.lax.stop_gradient(x[2])
+        g1, g2 = -s1 * x3, x3 / s2
 
         def phi(X2, x2, x1):  # φ(Y₃, y₂, y₃) = φ(X₂, x₂, x₁)
             return s1 * L1(x2, X2, x1, h, g1)

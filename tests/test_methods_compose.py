@@ -1,0 +1,171 @@
+"""Adjoint and compositions (issue #5, item 4).
+
+* Ψ*_h = (Ψ_{−h})⁻¹ through the inverse map: Ψ_{−h}(Ψ*_h(x)) = x, (Ψ*)* = Ψ, case (Σ, σ), and the
+  adjoint's generating map (φ̃ = Φ(−h)·p, Φ̃ = φ(−h)·p) solves the equations of (Σ, σ);
+* the coefficients of every composition satisfy the order conditions of a symmetric composition of
+  a symmetric method exactly to their order and not beyond — checked by multiplying the
+  exponentials exp(γh E₁ + (γh)³E₃ + (γh)⁵E₅ + (γh)⁷E₇) in the free associative algebra;
+* observed global orders 2, 4, 6 (log–log fits against DOP853) for compositions of the class
+  methods, including S1 through Quispel's correction map on a nonlinear field.
+"""
+
+import itertools
+from math import factorial
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from jax import lax
+
+from vpforms import Case, compose, scheme
+from vpforms._methods import COMPOSITIONS, Composition, SymmetricPair
+from vpforms.problems import get
+
+from .test_methods_helpers import fit_order, reference_flow
+
+
+# -- order conditions in the free algebra ---------------------------------------------------------
+LETTERS = {1: "a", 3: "b", 5: "c", 7: "d"}  # E₁, E₃, E₅, E₇ with their weights
+
+
+def _mul(u, v, wmax):
+    out = {}
+    for wu, cu in u.items():
+        for wv, cv in v.items():
+            w = wu + wv
+            if sum(k for k, l in LETTERS.items() for ch in w if ch == l) <= wmax:
+                out[w] = out.get(w, 0.0) + cu * cv
+    return out
+
+
+def _exp(gen, wmax):
+    """exp of a Lie element given as {word: coeff} (truncated at weight wmax)."""
+    out, term = {"": 1.0}, {"": 1.0}
+    for n in range(1, wmax + 1):
+        term = _mul(term, gen, wmax)
+        for w, c in term.items():
+            out[w] = out.get(w, 0.0) + c / factorial(n)
+    return out
+
+
+def composition_defect(gammas, wmax):
+    """max |coefficient| per weight of Π exp(S_{γᵢ}) − exp(E₁), S_γ = Σ_k γ^k E_k (k odd)."""
+    prod = {"": 1.0}
+    for g in gammas:
+        prod = _mul(_exp({LETTERS[k]: g**k for k in LETTERS}, wmax), prod, wmax)
+    exact = _exp({"a": 1.0}, wmax)
+    defect = {}
+    for w in set(prod) | set(exact):
+        weight = sum(k for k, l in LETTERS.items() for ch in w if ch == l)
+        d = abs(prod.get(w, 0.0) - exact.get(w, 0.0))
+        defect[weight] = max(defect.get(weight, 0.0), d)
+    return defect
+
+
+@pytest.mark.parametrize("key", sorted(COMPOSITIONS))
+def test_composition_coefficients_satisfy_their_order_conditions(key):
+    order, _ = key
+    gammas = COMPOSITIONS[key]
+    assert np.allclose(gammas, gammas[::-1], atol=0, rtol=0)  # symmetric composition
+    d = composition_defect(gammas, order + 1)
+    tol = 1e-13 if key != (6, "yoshida") else 1e-12  # Yoshida's 15-digit published values
+    assert max(d[w] for w in range(1, order + 1)) <= tol, d
+    assert d[order + 1] >= 1e-4, d  # and the order is not higher
+
+
+def test_order_two_from_the_free_algebra_too():
+    # Ψ*_{h/2}∘Ψ_{h/2} has no even terms: with Ψ_h = exp(hE₁ + h²E₂ + …) this is the statement
+    # that the (h/2)² terms cancel; the composition coefficients above start from it.
+    assert composition_defect((1.0,), 2)[1] == 0.0
+
+
+# -- adjoint -------------------------------------------------------------------------------------
+def test_adjoint_is_the_inverse_at_minus_h():
+    field = get("lotka_volterra").field
+    x = jnp.asarray(np.random.default_rng(3).uniform(0.5, 2.0, (6, 3)))
+    for c in (Case((3, 2, 1), (1, 2, 3)), Case((1, 2, 3), (2, 3, 1)), Case((2, 1, 3), (1, 2, 3))):
+        m = scheme(field, c)
+        adj = m.adjoint()
+        assert adj.case == c.switched() and adj.adjoint().case == c and adj.cls == m.cls
+        Y = adj.step(x, 0.05)
+        assert float(jnp.max(jnp.abs(m.step(Y, -0.05) - x))) <= 1e-13
+        gm = adj.generating_map(0.05, x[0])
+        if gm is not None:
+            assert gm.case == c.switched()
+            assert float(jnp.max(jnp.abs(adj.residual(x, Y, 0.05)))) <= 1e-12
+        assert float(jnp.max(jnp.abs(m.inverse_step(m.step(x, 0.05), 0.05) - x))) <= 1e-13
+
+
+# -- observed orders -----------------------------------------------------------------------------
+def flow(method):
+    """A compiled n-step flow (x0 batch, h, n) → x_n."""
+
+    def run(x0, h, n):
+        step = jax.vmap(lambda p: method._forward(p, h)[0])
+        return lax.fori_loop(0, n, lambda i, x: step(x), x0)
+
+    return jax.jit(run)
+
+
+def observed_order(method, field, x0, T, ns):
+    ref = reference_flow(field, x0, T)
+    run = flow(method)
+    errs = [float(np.max(np.abs(np.asarray(run(jnp.asarray(x0), T / n, n)) - ref))) for n in ns]
+    return fit_order([T / n for n in ns], errs), errs
+
+
+ABC_X0 = np.array([[0.5, 0.7, 0.9], [1.0, 0.6, 0.8]])
+LV_X0 = np.array([[1.0, 1.5, 0.7], [0.8, 1.1, 1.3]])
+
+
+@pytest.mark.parametrize(
+    "cls,opts,field_name",
+    [
+        ("SE+SE", {}, "abc"),
+        ("SE+DL", {}, "lotka_volterra"),
+        ("DL+DL", {"theta": 0.5}, "lotka_volterra"),
+        ("S1", {}, "lotka_volterra"),  # Quispel's correction map (t5vp), nonlinear field
+        ("S2", {}, "lotka_volterra"),  # (t5vps2)
+    ],
+)
+def test_adjoint_composition_has_order_two(cls, opts, field_name):
+    field = get(field_name).field
+    m = compose(scheme(field, cls, **opts), order=2)
+    assert isinstance(m, SymmetricPair) and m.order == 2 and m.symmetric and m.cls == cls
+    x0 = ABC_X0 if field_name == "abc" else LV_X0
+    p, errs = observed_order(m, field, x0, 0.5, (4, 8, 16, 32))
+    assert abs(p - 2.0) <= 0.1, (p, errs)
+
+
+@pytest.mark.parametrize(
+    "cls,field_name,order,scheme_name,ns",
+    [
+        ("SE+SE", "abc", 4, "suzuki", (4, 6, 8, 12)),
+        ("SE+SE", "abc", 4, "triple_jump", (4, 6, 8, 12)),
+        ("SE+SE", "abc", 6, "kahan_li", (3, 4, 5, 6)),
+        ("SE+SE", "abc", 6, "yoshida", (3, 4, 5, 6)),
+        ("S1", "lotka_volterra", 4, "suzuki", (4, 6, 8, 12)),
+        ("S1", "lotka_volterra", 6, "kahan_li", (3, 4, 5, 6)),
+    ],
+)
+def test_higher_order_compositions(cls, field_name, order, scheme_name, ns):
+    field = get(field_name).field
+    m = compose(scheme(field, cls), order=order, scheme=scheme_name)
+    assert isinstance(m, Composition) and m.order == order and m.symmetric
+    x0 = ABC_X0 if field_name == "abc" else LV_X0
+    p, errs = observed_order(m, field, x0, 1.0, ns)
+    assert abs(p - order) <= 0.1 * order / 2, (p, errs)
+
+
+def test_compositions_are_symmetric_and_checked():
+    field = get("abc").field
+    x = jnp.asarray(ABC_X0)
+    for order in (2, 4):
+        m = compose(scheme(field, "SE+SE"), order=order)
+        back = m.step(m.step(x, 0.1), -0.1)  # S_{−h}∘S_h = id for a symmetric method
+        assert float(jnp.max(jnp.abs(back - x))) <= 1e-13
+    with pytest.raises(ValueError, match="order"):
+        compose(scheme(field, "SE+SE"), order=3)
+    with pytest.raises(ValueError, match="unknown"):
+        compose(scheme(field, "SE+SE"), order=4, scheme="nonsense")
