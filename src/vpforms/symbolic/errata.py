@@ -351,10 +351,12 @@ TYPOGRAPHICAL: tuple[str, ...] = (
 def errata_report(fmt: str = "markdown", A=None) -> str:
     """The full errata report as text: every printed formula with its measured defect."""
     rows = errata_rows(A)
+    on = ("the generic traceless matrix A (a33 = −a11 − a22)" if A is None
+          else f"the matrix A = {sp.Matrix(A).tolist()}")
     head = (
         "# Errata of arXiv 1412.6345, measured symbolically\n\n"
-        "Consistency (M(0) = I, M'(0) = A), order and det M(h) of X = M(h) x on the generic "
-        "traceless matrix A (a33 = −a11 − a22); exact SymPy arithmetic.\n\n"
+        f"Consistency (M(0) = I, M'(0) = A), order and det M(h) of X = M(h) x on {on}; "
+        "exact SymPy arithmetic.\n\n"
         if fmt == "markdown" else ""
     )
     n_bad = sum(not r.ok for r in rows)
