@@ -171,8 +171,9 @@ def _case_forms(sigma: tuple[int, int, int], Sigma: tuple[int, int, int]) -> Cas
     nu = cyclic_primitive(s(1))
     nu_tilde = cyclic_primitive(S(1))
     eps_s, eps_S = _orientation(s), _orientation(S)
-    # The sign rule: d(φ_g dx₋ − sΦ_g dX₋) = x₊dx∘∧dx₋ − sX₊dX∘∧dX₋ must equal ε_σ⁻¹(ν̃ − ν) up to
-    # the factor −ε_σ, which forces s = ε_σ ε_Σ; it coincides with sgn τ (checked, not assumed).
+    # The sign rule: on the graph d(φ_g dx₋ − sΦ_g dX₋) = x₊dx∘∧dx₋ − sX₊dX∘∧dX₋, while
+    # ν̃ − ν = ε_Σ X₊dX∘∧dX₋ − ε_σ x₊dx∘∧dx₋; so λ = −ε_σ(φ_g dx₋ − sΦ_g dX₋) has dλ = ν̃ − ν iff
+    # s = ε_σ ε_Σ, which coincides with sgn τ (checked here, not assumed).
     sign = eps_s * eps_S
     if sign != case.sign:  # pragma: no cover - a contradiction in the permutation algebra
         raise AssertionError(f"ε_σ ε_Σ = {sign} ≠ sgn τ = {case.sign} for {case}")
