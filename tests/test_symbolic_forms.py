@@ -115,3 +115,18 @@ def test_trivperm_and_switchperm_all_cases():
 def test_generic_equations_reject_a_bad_sign():
     with pytest.raises(ValueError, match="sign"):
         sym.generic_equations(CASES[0], sign=0)
+
+
+def test_identify_case_inverts_case_forms():
+    for c in CASES:
+        cf = sym.case_forms(c)
+        phi, Phi = cf.undefined_potentials()
+        assert sym.identify_case(phi, Phi, cf.l, cf.m) == c
+    # the paper's S1 one-form φ(x1, x2, X1) dx1 + Φ(x1, X1, X2) dX1 (eq:S1)
+    f, F = sp.Function("f"), sp.Function("F")
+    assert sym.identify_case(f(x[0], x[1], X[0]), F(x[0], X[0], X[1]), 1, 1) == Case(
+        (3, 2, 1), (3, 2, 1))
+    with pytest.raises(ValueError, match="fits no case"):
+        sym.identify_case(f(x[0], x[1], x[2]), F(x[0], X[0], X[1]), 1, 1)
+    with pytest.raises(ValueError, match="not allowed"):
+        sym.identify_case(f(x[0], x[1], X[2]), F(x[0], X[0], X[1]), 1, 1)

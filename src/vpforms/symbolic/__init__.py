@@ -4,6 +4,7 @@ consistency of potentials, and the paper's errata, all computed from (σ, Σ).
 Import on demand (``import vpforms.symbolic``); ``import vpforms`` does not load SymPy.
 
 * :func:`case_forms` — ν, ν̃, λ (LM normalisation), determining equations, twist conditions;
+  :func:`identify_case` — the case of a given one-form λ = φ dx_l + Φ dX_m;
 * :func:`prove_case`, :func:`prove_all` — f*ν̃ − ν = dλ on R⁶ and det Df = sign·sgnσ·sgnΣ;
 * :func:`check_volpotinv`, :func:`check_permactalg`, :func:`check_trivperm`,
   :func:`check_switchperm` — the reduction propositions on generic potentials;
@@ -20,7 +21,16 @@ from ._symbols import COORDS, A, X, Y, h, x, y
 from .consistency import ConsistencyResult, consistency, generic_traceless_matrix
 from .errata import ErrataRow, errata_report, errata_rows, render_errata
 from .exterior import Form, d, dvar, wedge
-from .forms import CaseForms, CaseProof, case_forms, generic_equations, lm_equations, prove_all, prove_case
+from .forms import (
+    CaseForms,
+    CaseProof,
+    case_forms,
+    generic_equations,
+    identify_case,
+    lm_equations,
+    prove_all,
+    prove_case,
+)
 from .propositions import (
     PropositionCheck,
     check_permactalg,
@@ -59,7 +69,8 @@ __all__ = [
     "ConsistencyResult", "consistency", "generic_traceless_matrix",
     "ErrataRow", "errata_report", "errata_rows", "render_errata",
     "Form", "d", "dvar", "wedge",
-    "CaseForms", "CaseProof", "case_forms", "generic_equations", "lm_equations", "prove_all",
+    "CaseForms", "CaseProof", "case_forms", "generic_equations", "identify_case", "lm_equations",
+    "prove_all",
     "prove_case",
     "PropositionCheck", "check_permactalg", "check_switchperm", "check_trivperm", "check_volpotinv",
     "REPRESENTATIVES", "SYMBOLS", "GenericPotentials", "Recipe", "check_dependencies",

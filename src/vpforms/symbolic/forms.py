@@ -49,6 +49,7 @@ __all__ = [
     "prove_case",
     "prove_all",
     "cyclic_primitive",
+    "identify_case",
 ]
 
 Potential = Callable[..., sp.Expr]
@@ -369,3 +370,36 @@ def prove_case(case: Case | tuple, sign: int | None = None) -> CaseProof:
 def prove_all(sign_rule: bool = True) -> dict[Case, CaseProof]:
     """:func:`prove_case` for all 36 cases (with the sign rule, or with the opposite sign)."""
     return {c: prove_case(c, None if sign_rule else -c.sign) for c in cases()}
+
+
+def identify_case(phi: sp.Expr, Phi: sp.Expr, l: int, m: int) -> Case:
+    """The case (σ, Σ) of a Lomelí–Meiss one-form λ = φ dx_l + Φ dX_m (eq:oneform).
+
+    In every case l = x₋ and m = X₋, φ depends on (x₋, x∘, X₋) and Φ on (x₋, X₋, X∘); so x∘ is the
+    one old variable other than x_l that φ depends on, X∘ the one new variable other than X_m that Φ
+    depends on, and then σ = (x₊, x∘, x₋), Σ = (X₊, X∘, X₋).  ValueError if λ fits no case.
+    """
+    if l not in (1, 2, 3) or m not in (1, 2, 3):
+        raise ValueError(f"l and m are coordinate indices 1, 2, 3; got l={l!r}, m={m!r}")
+    fphi, fPhi = sp.sympify(phi).free_symbols, sp.sympify(Phi).free_symbols
+    xc = [i for i in (1, 2, 3) if i != l and x[i - 1] in fphi]
+    Xc = [i for i in (1, 2, 3) if i != m and X[i - 1] in fPhi]
+    if len(xc) != 1 or len(Xc) != 1:
+        raise ValueError(
+            f"λ = φ dx{l} + Φ dX{m} fits no case: φ must depend on exactly one of the old variables "
+            f"other than x{l} (it depends on {sorted(map(str, fphi & set(x)))}) and Φ on exactly "
+            f"one new variable other than X{m} (it depends on {sorted(map(str, fPhi & set(X)))})"
+        )
+    xp = ({1, 2, 3} - {l, xc[0]}).pop()
+    Xp = ({1, 2, 3} - {m, Xc[0]}).pop()
+    case = Case((xp, xc[0], l), (Xp, Xc[0], m))
+    cf = case_forms(case)
+    bad = (fphi & (set(x) | set(X))) - set(cf.phi_args) or (fPhi & (set(x) | set(X))) - set(
+        cf.Phi_args
+    )
+    if bad:
+        raise ValueError(
+            f"λ = φ dx{l} + Φ dX{m} fits no case: {', '.join(sorted(map(str, bad)))} not allowed "
+            f"(the nearest case {case} has φ{cf.phi_args}, Φ{cf.Phi_args})"
+        )
+    return case
