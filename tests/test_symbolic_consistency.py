@@ -183,21 +183,23 @@ def test_to_generic_roundtrip_and_generic_equations_for_all_cases():
             assert any(sp.expand(eq.lhs - eq.rhs + k * e) == 0 for k in (1, -1))
 
 
-def test_generic_potentials_drive_the_numerical_engine():
-    """The S1 recipe through to_generic + lambdify + GeneratingMap equals M(h) x (exact)."""
+@pytest.mark.parametrize("case", [Case((3, 2, 1), (3, 2, 1)), Case((1, 2, 3), (2, 3, 1)),
+                                  Case((2, 3, 1), (1, 3, 2))], ids=str)
+def test_generic_potentials_drive_the_numerical_engine(case):
+    """LM potentials through to_generic + lambdify + GeneratingMap give M(h) x (the exact map),
+    for cases with c_φ = +1 and −1 (σ odd / even) — the helper issue #5 relies on."""
     jnp = pytest.importorskip("jax.numpy")
     from vpforms import GeneratingMap
 
-    rec = R.s1_potentials("quispel")
-    sub = {A_SYM[i, j]: A_INT[i, j] for i in range(3) for j in range(3)}
+    phi_e, Phi_e = _potentials_for(case, A_INT)
     hv = sp.Rational(1, 10)
-    g = R.to_generic(rec.case, rec.phi.xreplace(sub).subs(h, hv), rec.Phi.xreplace(sub).subs(h, hv))
-    assert g.params == ()
+    g = R.to_generic(case, phi_e.subs(h, hv), Phi_e.subs(h, hv))
+    assert g.params == () and g.sign == case.sign
     phi, Phi = g.lambdify()
-    m = GeneratingMap(phi, Phi, rec.case)
+    m = GeneratingMap(phi, Phi, case)
     x0 = np.array([0.3, -0.2, 0.5])
     X_num = np.asarray(m(jnp.asarray(x0)))
-    M = sym.consistency(rec.case, rec.phi, rec.Phi, A_INT).M.matrix.subs(h, hv)
+    M = sym.consistency(case, phi_e, Phi_e, A_INT).M.matrix.subs(h, hv)
     X_exact = np.array((M * sp.Matrix(x0.tolist())).evalf(), dtype=float).ravel()
     assert np.allclose(X_num, X_exact, rtol=0, atol=1e-12)
 
