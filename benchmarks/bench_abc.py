@@ -301,11 +301,11 @@ def main(argv=None) -> int:
         "brackets, the ratio to "
         "the hand-written JAX three-shear kernel; error = median over the first "
         f"{n_ref} particles of max-norm |x(T) − x_ref(T)| (reference: DOP853, rtol = atol = 1e-13).",
-        ""
-        + (f"For N ≥ {args.large:,} ".replace(",", " ") + f"each method is timed over its first "
+        "",
+        *([(f"For N ≥ {args.large:,} ".replace(",", " ") + f"each method is timed over its first "
            f"{args.large_steps} steps only (the cost per particle-step does not depend on the number "
            "of steps; it keeps the whole benchmark under 10 minutes); the error column comes from the "
-           f"runs to T = {T:g}.\n" if any(N >= args.large for N in sizes) else ""),
+           f"runs to T = {T:g}."), ""] if any(N >= args.large for N in sizes) else []),
         "| method | " + " | ".join(f"N = {N:,}".replace(",", " ") for N in sizes) + f" | median error at T = {T:g} |",
         "|---|" + "---:|" * len(sizes) + "---:|",
     ]

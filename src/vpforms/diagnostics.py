@@ -92,11 +92,16 @@ def _logdet_kernel(step_fn, n_steps, x, h):
     def one(x):
         def body(carry, _):
             x, st, acc = carry
-            J, (X, s) = jax.jacfwd(lambda z: (step_fn(z, h)[0], step_fn(z, h)), has_aux=True)(x)
+            def f(z):
+                X, s = step_fn(z, h)
+                return X, (X, s)
+
+            J, (X, s) = jax.jacfwd(f, has_aux=True)(x)
             _, ld = jnp.linalg.slogdet(J)  # log |det J|, forward-mode J (exact through the solves)
             good = (st == RESULTS.successful) & (s == RESULTS.successful) & jnp.isfinite(ld)
             ld = jnp.where(good, ld, 0.0)
-            st = jnp.where((st == RESULTS.successful) & ~good, jnp.maximum(s, 1), st)
+            code = jnp.where(s != RESULTS.successful, s, RESULTS.nonfinite).astype(st.dtype)
+            st = jnp.where((st == RESULTS.successful) & ~good, code, st)
             x = jnp.where(good, X, x)
             return (x, st, acc + ld), ld
 
@@ -363,13 +368,17 @@ def _levels(s, P):
 
 
 @partial(jax.jit, static_argnums=(0, 1, 2, 3, 4, 5))
-def _poincare_scan(step_fn, n_steps, K, axis, direction, P, x, st, count, bx, bn, bl, n0, h, value):
-    """Scan n_steps steps; record x_n, n and the crossed level for each particle's first K crossings."""
+def _poincare_scan(step_fn, n_steps, K, axis, direction, P, x, st, count, bx, bn, bl, n0, h, value, n_stop):
+    """Scan n_steps steps from step n0 (steps ≥ n_stop skipped); record x_n, n and the crossed
+    level for each particle's first K crossings."""
 
     def one(x, st, count, bx, bn, bl):
         def body(carry, j):
-            x, st, count, bx, bn, bl = carry
             n = (n0 + j).astype(jnp.int32)
+            return lax.cond(n < n_stop, lambda c: real(c, n), lambda c: c, carry), None
+
+        def real(carry, n):
+            x, st, count, bx, bn, bl = carry
             X, s = step_fn(x, h)
             alive = st == RESULTS.successful
             good = alive & (s == RESULTS.successful)
@@ -387,7 +396,7 @@ def _poincare_scan(step_fn, n_steps, K, axis, direction, P, x, st, count, bx, bn
             bl = bl.at[i].set(jnp.where(w, lvl, bl[i]))
             count = count + cross.astype(count.dtype)
             x = jnp.where(good, X, x)
-            return (x, st, count, bx, bn, bl), None
+            return (x, st, count, bx, bn, bl)
 
         carry, _ = lax.scan(body, (x, st, count, bx, bn, bl), jnp.arange(n_steps))
         return carry
@@ -492,7 +501,6 @@ def poincare_section(
     K = int(max_crossings) if max_crossings is not None else n_steps // 4 + 8
     C = min(N, chunk_size or auto_chunk_size(N, 2 * K))
     seg = max(1, min(n_steps, -(-n_steps // 20)))  # ~20 compiled calls per chunk: a live bar
-    n_seg = -(-n_steps // seg)
     fn = _StepFn(method)
     P = None if period is None else float(period)
     hj, vj = jnp.asarray(float(h)), jnp.asarray(float(value))
@@ -509,11 +517,12 @@ def poincare_section(
             bx, bn, bl = jnp.zeros((C, K, 3)), jnp.zeros((C, K), jnp.int32), jnp.zeros((C, K))
             done = 0
             while done < n_steps:
-                # the last segment is shorter only if seg does not divide n_steps (one more compile)
-                L = min(seg, n_steps - done)
+                # fixed-length segments (one compilation); steps past n_steps are skipped
                 x, st, cnt, bx, bn, bl = _poincare_scan(
-                    fn, L, K, axis, direction, P, x, st, cnt, bx, bn, bl, jnp.asarray(done), hj, vj
+                    fn, seg, K, axis, direction, P, x, st, cnt, bx, bn, bl, jnp.asarray(done), hj, vj,
+                    jnp.asarray(n_steps),
                 )
+                L = min(seg, n_steps - done)
                 done += L
                 x.block_until_ready()  # asynchronous dispatch: sync so the bar tracks real work
                 bar.update((hi - lo) * L)
@@ -535,7 +544,7 @@ def poincare_section(
     # locate: batched over all crossings, in fixed-size padded chunks (one compilation)
     M = xs.shape[0]
     pts_out, thetas = np.zeros((M, 3)), np.zeros(M)
-    R = min(max(M, 1), 2**14)
+    R = min(1 << max(M - 1, 1).bit_length(), 2**14)  # power-of-two buckets: few compilations
     for lo, hi in _chunks(M, R):
         Y, th = _refine_kernel(
             fn, axis, interpolation, jnp.asarray(_pad(xs[lo:hi], R)), jnp.asarray(_pad(ls[lo:hi, None], R)[:, 0]), hj
