@@ -151,13 +151,14 @@ class Method(ABC):
         )
         return fn(as_points(X), jnp.asarray(h, float))
 
-    def _guess(self, x: jax.Array, h: Any) -> jax.Array:
-        """Initial guess for X = Ψ_h(x) (one point); only convergence depends on it."""
-        return self.euler_guess(x, h)
+    def _guess(self, x: jax.Array, h: Any):
+        """(initial guess for X = Ψ_h(x), Newton iterations spent on it); only convergence
+        depends on the guess."""
+        return self.euler_guess(x, h), jnp.int32(0)
 
-    def _guess_inverse(self, X: jax.Array, h: Any) -> jax.Array:
-        """Initial guess for x = Ψ_h⁻¹(X) (one point)."""
-        return self.euler_guess(X, -h)
+    def _guess_inverse(self, X: jax.Array, h: Any):
+        """(initial guess for x = Ψ_h⁻¹(X), Newton iterations spent on it)."""
+        return self.euler_guess(X, -h), jnp.int32(0)
 
     def euler_guess(self, x: jax.Array, h: Any) -> jax.Array:
         """x + h·a(x) — the initial guess of every solve (X = x + h a(x) + O(h²) by consistency)."""
@@ -241,11 +242,14 @@ def _sg(x):
     return jax.lax.stop_gradient(x)
 
 
-def solve_from_guess(method, m, x, guess):
+def solve_from_guess(method, m, x, guess_and_iters):
     """``m.solve(x, guess)``; if the method's guess is itself the solution of the same equations in
     another (better conditioned) form, a disagreement beyond 1e-6 relative flags the point as not
-    converged (the engine found another branch of an implicit potential)."""
+    converged (the engine found another branch of an implicit potential). The iterations count
+    those spent on the guess too."""
+    guess, n_guess = guess_and_iters
     X, status, iters = m.solve(x, guess, return_iterations=True)
+    iters = iters + n_guess
     if getattr(method, "guess_is_solution", False):
         far = jnp.max(jnp.abs(X - guess)) > 1e-6 * (1.0 + jnp.max(jnp.abs(X)))
         status = merge_status(status, jnp.where(far, RESULTS.not_converged, 0))
@@ -278,10 +282,12 @@ class Relabelled(Method):
         self._pi_inv_idx = jnp.asarray(self.pi.inverse().index)
 
     def _guess(self, x, h):
-        return self.base._guess(x[self._pi_idx], h)[self._pi_inv_idx]
+        g, n = self.base._guess(x[self._pi_idx], h)
+        return g[self._pi_inv_idx], n
 
     def _guess_inverse(self, X, h):
-        return self.base._guess_inverse(X[self._pi_idx], h)[self._pi_inv_idx]
+        g, n = self.base._guess_inverse(X[self._pi_idx], h)
+        return g[self._pi_inv_idx], n
 
     def generating_map(self, h, x=None):
         y = None if x is None else jnp.asarray(x)[self._pi_idx]

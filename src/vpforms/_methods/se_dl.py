@@ -76,10 +76,16 @@ class DLPredictor:
         return x, merge_status(s1, s2, jnp.where(jnp.all(jnp.isfinite(x)), 0, 3)), n1 + n2
 
     def _guess(self, x, h):
-        return self.euler_guess(x, h) if self.printed else self._stages(x, h)[0]
+        if self.printed:
+            return self.euler_guess(x, h), jnp.int32(0)
+        X, _, n = self._stages(x, h)
+        return X, n
 
     def _guess_inverse(self, X, h):
-        return self.euler_guess(X, -h) if self.printed else self._stages_inverse(X, h)[0]
+        if self.printed:
+            return self.euler_guess(X, -h), jnp.int32(0)
+        x, _, n = self._stages_inverse(X, h)
+        return x, n
 
     def _forward(self, x, h):
         return self._stages(x, h) if self.fast else super()._forward(x, h)
