@@ -309,7 +309,8 @@ def _cmd_poincare(args, console) -> int:
     console.print(_summary_table("vpforms poincare", {
         "problem": prob.name,
         "method": sec.method,
-        "plane": f"x{args.axis} = {args.value:g}" + (f" (mod {period:.6g})" if period else ""),
+        "plane": f"x{args.axis} = {args.value:g}"
+        + ((" (mod 2π)" if abs(period - 2 * math.pi) < 1e-12 else f" (mod {period:.6g})") if period else ""),
         "orbits × steps": f"{args.particles} × {args.steps} (h = {args.h:g})",
         "crossings": int(sec.points.shape[0]),
         "dropped (buffer full)": sec.dropped,

@@ -447,6 +447,15 @@ def _refine_kernel(step_fn, axis, mode, x, lvl, h):
     return jax.vmap(one)(x, lvl)
 
 
+def _interp_order(method: Any, interpolation: str) -> str:
+    if interpolation == "linear":
+        return "1 (chord; error O(h²))"
+    p = getattr(method, "order", None)
+    p = p if isinstance(p, int) else "p"
+    q = p + 1 if isinstance(p, int) else "p+1"
+    return f"{p} (the method's own step family; local error O(h^{q}))"
+
+
 def poincare_section(
     method: Any,
     x0: Any,
@@ -567,7 +576,7 @@ def poincare_section(
         direction=direction,
         period=P,
         interpolation=interpolation,
-        interpolation_order="p (the method's order; local error O(h^{p+1}))" if interpolation == "step" else "1 (chord; error O(h²))",
+        interpolation_order=_interp_order(method, interpolation),
         method=describe(method),
         status=status,
     )
