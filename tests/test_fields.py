@@ -408,3 +408,48 @@ def test_gl_error_bound_is_a_bound():
     err = abs(np.dot(w, np.exp(t)) - (np.e - 1))
     bound = gl_error_bound(3, np.e, 1.0)
     assert err <= bound and bound < 1e-5
+
+
+# -- review: exact divergence is decided exactly; bad input is a clear ValueError --------------------
+def test_an_exactly_nonzero_divergence_is_never_accepted_numerically():
+    # div a = 1/10⁷ exactly, tiny next to max|∂a_i/∂x_j| = 10⁶: a relative numerical tolerance
+    # would pass it, but SymPy *decides* it is not 0
+    big = 10**6
+    for extra in (x1 / 10**7, sp.sin(x1) / 10**7):
+        with pytest.raises(NotDivergenceFreeError, match="is not 0"):
+            Field.from_sympy((big * sp.sin(x2) + extra, x3, x1), SYMBOLS)
+    # rounding in Float coefficients is still judged with a tolerance
+    A = np.array([[1.0, 2.0, 0.0], [0.0, -1.0, 1.0], [1.0, 0.0, 5e-13]])
+    assert Field.linear(A).divergence_check in ("symbolic", "numerical")
+
+
+@pytest.mark.parametrize("bad, match", [
+    ((sp.nan, x3, x1), "not finite"),
+    ((sp.zoo, x3, x1), "not finite"),
+    ((sp.I * x2, x3, x1), "not real"),
+])
+def test_non_finite_or_complex_components_are_rejected(bad, match):
+    with pytest.raises(ValueError, match=match):
+        Field.from_sympy(bad, SYMBOLS)
+
+
+def test_params_must_name_parameters_of_the_field():
+    k = sp.Symbol("k")
+    with pytest.raises(ValueError, match="unknown parameter 'kk'"):
+        Field.from_sympy((k * x2, x3, x1), SYMBOLS, params={"k": 1.0, "kk": 2.0})
+    with pytest.raises(ValueError, match="coordinate"):
+        Field.from_sympy((k * x2, x3, x1), SYMBOLS, params={"k": 1.0, "x1": 0.0})
+    with pytest.raises(ValueError, match="finite"):
+        Field.from_sympy((k * x2, x3, x1), SYMBOLS, params={"k": sp.oo})
+
+
+def test_non_traceable_callables_and_bad_matrices_raise_value_error():
+    with pytest.raises(ValueError, match="JAX-traceable"):
+        Field.from_callable(lambda v: np.array([np.sin(v[1]), v[2], v[0]]))
+    with pytest.raises(ValueError, match="JAX-traceable"):
+        Field.from_callable((lambda a, b, c: float(b), lambda a, b, c: c, lambda a, b, c: a))
+    with pytest.raises(ValueError, match="3×3 matrix of numbers"):
+        Field.linear([["a", 0, 0], [0, 0, 0], [0, 0, 0]])
+    # the trace tolerance is relative to the matrix: a tiny non-traceless matrix is not accepted
+    with pytest.raises(ValueError, match="tr A"):
+        Field.linear(np.diag([1e-14, 1e-14, 1e-14]))

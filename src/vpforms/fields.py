@@ -191,17 +191,25 @@ def _chop(expr: Any, thr: float) -> Any:
     return sp.expand(expr.xreplace(small)) if small else expr
 
 
-def _symbolic_zero(expr: Any, symbols: Sequence[sp.Symbol], float_thr: float) -> bool:
-    """True if expr simplifies to 0 (Float coefficients ≤ float_thr count as rounding)."""
+def _decide_zero(expr: Any, symbols: Sequence[sp.Symbol], float_thr: float) -> bool | None:
+    """Is expr identically 0?  True / False when SymPy decides it, None when it cannot.
+
+    Float coefficients ≤ float_thr count as rounding.  An expression with Float coefficients
+    that does not chop to 0 is undecided (None): its coefficients are approximate, so only a
+    tolerance can judge it.  An exact (Float-free) expression is decided: a nonzero polynomial,
+    or one that ``equals`` shows nonzero, is False.
+    """
     e = sp.expand(sp.sympify(expr))
     if e == 0:
         return True
-    if e.atoms(sp.Float):
+    has_float = bool(e.atoms(sp.Float))
+    if has_float:
         e = _chop(e, float_thr)
         if e == 0:
             return True
     if e.is_polynomial(*symbols):
-        return False  # an expanded nonzero polynomial is not zero
+        return None if has_float else False  # an expanded nonzero polynomial is not zero
+    s = e
     for simp in (sp.trigsimp, sp.simplify):
         try:
             s = simp(e)
@@ -211,7 +219,26 @@ def _symbolic_zero(expr: Any, symbols: Sequence[sp.Symbol], float_thr: float) ->
             return True
         if s.atoms(sp.Float) and _chop(sp.expand(s), float_thr) == 0:
             return True
-    return False
+    if has_float:
+        return None
+    try:
+        return s.equals(0)  # True, False (a nonzero value found), or None
+    except Exception:  # pragma: no cover - SymPy internals
+        return None
+
+
+def _symbolic_zero(expr: Any, symbols: Sequence[sp.Symbol], float_thr: float) -> bool:
+    """True if expr simplifies to 0 (Float coefficients ≤ float_thr count as rounding)."""
+    return _decide_zero(expr, symbols, float_thr) is True
+
+
+def _check_finite_real(exprs: Sequence[Any], what: str) -> None:
+    """ValueError if an expression is NaN/infinite or complex (it would evaluate to NaN/garbage)."""
+    for i, e in enumerate(exprs, start=1):
+        if e.has(sp.nan, sp.zoo, sp.oo, -sp.oo):
+            raise ValueError(f"{what}{i} is not finite: {e}")
+        if e.has(sp.I):
+            raise ValueError(f"{what}{i} is not real (it contains I): {e}")
 
 
 def _numeric_max(fn: Callable, pts: np.ndarray) -> tuple[float, np.ndarray]:
@@ -454,7 +481,7 @@ class Field:
         symbols = tuple(symbols)
         if not all(isinstance(s, sp.Symbol) for s in symbols) or len(set(symbols)) != 3:
             raise ValueError(f"symbols must be three distinct SymPy symbols; got {symbols!r}")
-        subs, pvals = _param_subs(params, exprs, potentials)
+        subs, pvals = _param_subs(params, exprs, potentials, symbols)
         exprs = tuple(e.xreplace(subs) if subs else e for e in exprs)
         extra = set().union(*(e.free_symbols for e in exprs)) - set(symbols)
         if extra:
@@ -462,12 +489,15 @@ class Field:
                 f"field {name!r} has free symbols {sorted(map(str, extra))} besides the "
                 f"coordinates {[str(s) for s in symbols]}; give their values in params"
             )
+        _check_finite_real(exprs, f"field {name!r}: component a")
         box = _check_box(box)
 
-        # exact divergence check
+        # exact divergence check; only an undecided (or Float, i.e. rounded) divergence is
+        # judged numerically — an exactly nonzero one is never accepted
         div = sum(sp.diff(e, s) for e, s in zip(exprs, symbols))
         thr = 1e-13 * _float_scale(exprs)
-        if _symbolic_zero(div, symbols, thr):
+        decided = _decide_zero(div, symbols, thr)
+        if decided is True:
             how = "symbolic"
         else:
             pts = sample_box(box, 512, 0)
@@ -477,12 +507,13 @@ class Field:
             i = int(np.nanargmax(np.abs(vals))) if np.all(np.isfinite(vals)) else int(
                 np.flatnonzero(~np.isfinite(vals))[0]
             )
-            if np.isfinite(vals[i]) and abs(vals[i]) <= tol * jac_scale:
+            if decided is None and np.isfinite(vals[i]) and abs(vals[i]) <= tol * jac_scale:
                 how = "numerical"
             else:
                 raise _div_error(
-                    f"field {name!r} is not divergence free: div a = {sp.simplify(div)} does not "
-                    f"simplify to 0; the largest |div a| found at {len(pts)} points of the box "
+                    f"field {name!r} is not divergence free: div a = {sp.simplify(div)} "
+                    f"{'is not 0' if decided is False else 'does not simplify to 0'}; "
+                    f"the largest |div a| found at {len(pts)} points of the box "
                     f"{box} is {abs(vals[i]):.6g} at x = {_fmt_pt(pts[i])}",
                     abs(vals[i]),
                     pts[i],
@@ -506,6 +537,7 @@ class Field:
         if potentials is not None:
             for key, pair in _check_potentials_arg(potentials).items():
                 pair = tuple(sp.sympify(p).xreplace(subs) if subs else sp.sympify(p) for p in pair)
+                _check_finite_real(pair, f"{key.upper()} potential ")
                 extra = set().union(*(p.free_symbols for p in pair)) - set(symbols)
                 if extra:
                     raise ValueError(
@@ -546,7 +578,13 @@ class Field:
         """
         box = _check_box(box)
         if callable(a):
-            probe = jax.eval_shape(a, jax.ShapeDtypeStruct((3,), jnp.float64))
+            try:
+                probe = jax.eval_shape(a, jax.ShapeDtypeStruct((3,), jnp.float64))
+            except Exception as err:  # noqa: BLE001 - not traceable: numpy code, wrong arity, …
+                raise ValueError(
+                    "the callable a must be JAX-traceable, mapping a point of shape (3,) to shape "
+                    f"(3,); tracing it failed with {type(err).__name__}: {str(err).splitlines()[0]}"
+                ) from err
             shape = getattr(probe, "shape", None)
             if shape != (3,):
                 raise ValueError(
@@ -569,8 +607,15 @@ class Field:
             if len(comps) != 3 or not all(callable(c) for c in comps):
                 raise ValueError("a must be a callable a(x) or three scalar callables")
             for i, c in enumerate(comps):
-                s = jnp.float64(0.0)
-                shape = getattr(jax.eval_shape(c, s, s, s), "shape", None)
+                s = jax.ShapeDtypeStruct((), jnp.float64)
+                try:
+                    shape = getattr(jax.eval_shape(c, s, s, s), "shape", None)
+                except Exception as err:  # noqa: BLE001
+                    raise ValueError(
+                        f"component a{i + 1} must be a JAX-traceable scalar function of "
+                        f"(x1, x2, x3); tracing it failed with {type(err).__name__}: "
+                        f"{str(err).splitlines()[0]}"
+                    ) from err
                 if shape != ():
                     raise ValueError(f"component a{i + 1} must return a scalar; got shape {shape!r}")
         field = cls(
@@ -625,15 +670,18 @@ class Field:
     def linear(cls, A: Any, name: str = "linear", box: Any = _DEFAULT_BOX, tol: float = 1e-12) -> "Field":
         """The linear field a(x) = A x for a traceless 3×3 matrix A (closed-form quadratic potentials).
 
-        |tr A| ≤ tol · max(1, max|A_ij|) is accepted as traceless (rounding); otherwise ValueError.
+        |tr A| ≤ tol · max|A_ij| is accepted as traceless (rounding); otherwise ValueError.
         """
-        M = np.asarray(A, dtype=float)
+        try:
+            M = np.asarray(A, dtype=float)
+        except (TypeError, ValueError) as err:
+            raise ValueError(f"A must be a 3×3 matrix of numbers: {err}") from None
         if M.shape != (3, 3):
             raise ValueError(f"A must be a 3×3 matrix; got shape {M.shape}")
         if not np.all(np.isfinite(M)):
             raise ValueError("A must be finite")
         tr = float(np.trace(M))
-        if abs(tr) > tol * max(1.0, float(np.max(np.abs(M)))):
+        if abs(tr) > tol * float(np.max(np.abs(M))):
             raise ValueError(
                 f"a linear field x ↦ A x is divergence free only if tr A = 0; got tr A = {tr!r}"
             )
@@ -755,19 +803,35 @@ def _quadrature_potentials(comps, splitting: str, origin, n: int):
 # ---------------------------------------------------------------------------------------------
 # SymPy helpers
 # ---------------------------------------------------------------------------------------------
-def _param_subs(params, exprs, potentials):
+def _param_subs(params, exprs, potentials, symbols):
     if not params:
         return {}, {}
     if not isinstance(params, Mapping):
         raise ValueError("params must be a dict {symbol or name: value}")
-    free = set().union(*(sp.sympify(e).free_symbols for e in exprs))
+    given = list(exprs)
+    if isinstance(potentials, Mapping):
+        for pair in potentials.values():
+            try:
+                given += [sp.sympify(p) for p in pair]
+            except (sp.SympifyError, TypeError):
+                pass  # malformed potentials are reported later
+    free = set().union(*(e.free_symbols for e in given)) - set(symbols)
     by_name = {str(s): s for s in free}
     subs, vals = {}, {}
     for k, v in params.items():
-        sym = k if isinstance(k, sp.Symbol) else by_name.get(str(k), sp.Symbol(str(k)))
+        if k in symbols or str(k) in map(str, symbols):
+            raise ValueError(f"parameter {k} is a coordinate of the field, not a parameter")
+        sym = k if isinstance(k, sp.Symbol) else by_name.get(str(k))
+        if sym is None or sym not in free:
+            raise ValueError(
+                f"unknown parameter {k!r}: the field's free symbols besides the coordinates are "
+                f"{sorted(map(str, free))}"
+            )
         val = sp.sympify(v)
         if val.free_symbols:
             raise ValueError(f"parameter {k} must be a number; got {v!r}")
+        if val.has(sp.nan, sp.zoo, sp.oo, -sp.oo, sp.I):
+            raise ValueError(f"parameter {k} must be a finite real number; got {v!r}")
         subs[sym] = val
         vals[str(sym)] = float(val)
     return subs, vals
