@@ -241,3 +241,39 @@ def test_bad_input_raises_value_error_naming_the_problem():
         R.discrete_lagrangian(x[2] ** 3, x[1], x[2], x[1], X[1])
     with pytest.raises(ValueError, match="Y1|y1"):
         R.from_generic(rec.case, y[0], Y[1])
+
+
+def test_division_by_zero_and_identically_failing_twist_raise_instead_of_nan():
+    """A recipe that divides by a vanishing a_ij, or potentials that violate a twist condition
+    identically, are errors (they used to come back as a result with det = X = nan)."""
+    rec = R.s1_potentials()
+    no_a13 = [[1, 1, 0], [1, -1, 1], [1, 1, 0]]
+    with pytest.raises(ValueError, match="a13"):
+        sym.consistency(rec.case, rec.phi, rec.Phi, no_a13)
+    se = R.REPRESENTATIVES["SE+SE"]
+    # φ = x2²/2 does not depend on X₋ = X3: ∂²φ/∂x2∂X3 = 0, volpot1 does not determine X3
+    for field in ([[0, 1, 0], [0, 0, 1], [1, 0, 0]], (x[1], x[2], x[0])):
+        with pytest.raises(ValueError, match="twist"):
+            sym.consistency(se, x[1] ** 2 / 2, x[0] * X[1], field)
+
+
+def test_field_potentials_accept_any_matrix_form_and_use_one_implementation():
+    from vpforms.fields import potential_exprs
+
+    M = [[0, 1, 0], [0, 1, 1], [1, 0, -1]]
+    want_se, want_dl = R.se_field_potentials(sp.Matrix(M)), R.dl_field_potentials(sp.Matrix(M))
+    for form in (M, np.array(M), sp.Matrix(M)):
+        assert R.se_field_potentials(form) == want_se
+        assert R.dl_field_potentials(form) == want_dl
+    a = R.linear_field(M)
+    assert potential_exprs(a, x, "se") == want_se and potential_exprs(a, x, "dl") == want_dl
+    with pytest.raises(ValueError, match="traceless"):
+        R.se_field_potentials(np.eye(3))
+    with pytest.raises(ValueError, match="three SymPy expressions"):
+        R.dl_field_potentials((x[1], x[2]))
+
+
+def test_to_generic_rejects_potentials_already_in_generic_symbols():
+    se = R.REPRESENTATIVES["SE+SE"]
+    with pytest.raises(ValueError, match="generic symbols y1"):
+        R.to_generic(se, x[1] * X[2] + y[0], x[0] * X[1])

@@ -49,6 +49,7 @@ __all__ = [
     "vf2_expr",
     "vf3_expr",
     "lie_derivative_expr",
+    "potential_exprs",
 ]
 
 #: Default coordinate symbols x1, x2, x3 (real).
@@ -731,11 +732,23 @@ def _residual_exprs(exprs, symbols, key, pair):
     return tuple(ui + vi - ai for ui, vi, ai in zip(u, v, exprs))
 
 
-def _closed_form_potentials(field: Field, splitting: str):
-    """SymPy closed forms of MATH.md §3, verified symbolically; None if integrate fails."""
-    a1, a2, a3 = field.exprs
-    x1, x2, x3 = field.symbols
-    c1, c2, c3 = (sp.nsimplify(c) for c in field.origin)
+def potential_exprs(
+    exprs: Sequence[Any],
+    symbols: Sequence[sp.Symbol] = SYMBOLS,
+    splitting: str = "se",
+    origin: Sequence[Any] = (0, 0, 0),
+) -> tuple[Any, Any] | None:
+    """The potentials of MATH.md §3 of a SymPy field, by ``sympy.integrate`` (the one
+    implementation of these formulas; :class:`Field` and :mod:`vpforms.symbolic.recipes` use it).
+
+    ``"se"`` → (F¹, F³), ``"dl"`` → (G¹, G²), integrated from the base point ``origin``; None if
+    SymPy leaves an unevaluated integral or a Piecewise.  Not verified here: the formulas give
+    the field only if it is divergence free.
+    """
+    splitting = _check_splitting(splitting)
+    a1, a2, a3 = (sp.sympify(e) for e in exprs)
+    x1, x2, x3 = symbols
+    c1, c2, c3 = (sp.nsimplify(c) for c in origin)
     s, t = sp.Dummy("s", real=True), sp.Dummy("t", real=True)
 
     def integ(expr, var, dummy, lo):
@@ -758,6 +771,14 @@ def _closed_form_potentials(field: Field, splitting: str):
         return None
     pair = (sp.expand(P), sp.expand(Q))
     if any(p.has(sp.Piecewise) for p in pair):
+        return None
+    return pair
+
+
+def _closed_form_potentials(field: Field, splitting: str):
+    """SymPy closed forms of MATH.md §3, verified symbolically; None if integrate fails."""
+    pair = potential_exprs(field.exprs, field.symbols, splitting, field.origin)
+    if pair is None:
         return None
     thr = 1e-12 * _float_scale(field.exprs)
     res = _residual_exprs(field.exprs, field.symbols, splitting, pair)

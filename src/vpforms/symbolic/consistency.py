@@ -130,6 +130,10 @@ def consistency(
         The sign of volpot2 (default: sgn τ).  The opposite sign gives det = −1.
     n_terms:
         The highest power of h compared with the exact flow (order is reported up to it).
+
+    Raises ValueError (never a NaN result) if the potentials are not finite for the field (a
+    recipe dividing by a vanishing a_ij) or do not determine a map (a twist condition fails
+    identically).
     """
     if not isinstance(case, Case):
         case = Case(*case)
@@ -146,6 +150,12 @@ def consistency(
         comps = _field(field)
     check_dependencies(case, phi, Phi)
     cf = case_forms(case)
+    for name, e in (("phi", phi), ("Phi", Phi)):
+        if sp.sympify(e).has(sp.nan, sp.zoo, sp.oo, -sp.oo):
+            raise ValueError(
+                f"{name} is not finite for this field (it divides by zero once the matrix entries "
+                "are substituted; e.g. the S1 recipes need a13 ≠ 0, S2 needs a12, a13 ≠ 0)"
+            )
 
     if matrix is not None:
         lin = _linear_system(case, sp.sympify(phi), sp.sympify(Phi), sign)
@@ -187,6 +197,16 @@ def _linear_system(case, phi, Phi, sign):
     return K, P, Q
 
 
+def _twist_error(case) -> ValueError:
+    cf = case_forms(case)
+    _, xc, xm = cf.x_roles
+    _, Xc, Xm = cf.X_roles
+    return ValueError(
+        f"the potentials do not determine a map for {case}: a twist condition fails identically "
+        f"(∂²φ/∂{xc}∂{Xm} ≠ 0 and ∂²Φ/∂{xm}∂{Xc} ≠ 0 are needed, eq:volpot)"
+    )
+
+
 def _det3(M):
     return (M[0][0] * (M[1][1] * M[2][2] - M[1][2] * M[2][1])
             - M[0][1] * (M[1][0] * M[2][2] - M[1][2] * M[2][0])
@@ -217,9 +237,7 @@ def _linear_result(case, system, Am, n) -> ConsistencyResult:
     detP, detQ = _det3(P), _det3(Q)
     to_mat = lambda M: sp.Matrix(3, 3, lambda i, j: M[i][j].as_expr())  # noqa: E731
     if not detP:  # the determining equations do not determine X (twist fails identically)
-        nan = (sp.nan,) * 3
-        return ConsistencyResult(case, True, False, False, -1, n, sp.nan, False, None, None, None,
-                                 nan)
+        raise _twist_error(case)
     det_is_one = not (detQ + detP)  # det M = det(−Q)/det P
     det = (sp.S.One if det_is_one else sp.S.NegativeOne if not (detQ - detP)
            else (-K.field_new(detQ) / K.field_new(detP)).as_expr())
@@ -327,9 +345,13 @@ def _series_result(case, phi, Phi, comps, sign, n) -> ConsistencyResult:
     if Xm_s is not None:
         Xc_s = _series_root(sp.together(E2).xreplace({Xm: Xm_s}), Xc, ident[Xc], n)
     if Xc_s is None:
-        nan = (sp.nan,) * 3
-        return ConsistencyResult(case, False, False, False, -1, n_out, sp.nan, False, None, None,
-                                 None, nan)
+        t1, t2 = cf.twist_potentials(phi, Phi)
+        if sp.simplify(t1) == 0 or sp.simplify(t2) == 0:
+            raise _twist_error(case)
+        raise ValueError(
+            f"the determining equations of {case} could not be solved as power series in h "
+            "(no root of the h⁰ equation, or a vanishing linearisation)"
+        )
     Xp_s = sp.series(sp.together(E3 + Xp).xreplace({Xm: Xm_s, Xc: Xc_s}), h, 0, n_out + 1).removeO()
     n = n_out
     sol = {Xp: _truncate(Xp_s, n), Xc: _truncate(Xc_s, n), Xm: _truncate(Xm_s, n)}

@@ -290,47 +290,59 @@ def linear_field(M) -> tuple[sp.Expr, sp.Expr, sp.Expr]:
     return tuple(sp.expand(e) for e in v)  # type: ignore[return-value]
 
 
+def _is_matrix_like(a) -> bool:
+    """A 3×3 matrix given as a SymPy Matrix, a numpy array or nested sequences."""
+    if isinstance(a, sp.MatrixBase) or hasattr(a, "shape"):
+        return len(getattr(a, "shape", ())) == 2
+    try:
+        return any(isinstance(r, (list, tuple)) for r in a)
+    except TypeError:
+        return False
+
+
 def _field(a) -> tuple[sp.Expr, sp.Expr, sp.Expr]:
-    if isinstance(a, sp.MatrixBase) and a.shape == (3, 3):
+    if _is_matrix_like(a):
         return linear_field(a)
     try:
         comps = tuple(sp.sympify(c) for c in a)
     except (TypeError, sp.SympifyError):
         raise ValueError(f"a field is three SymPy expressions in x1, x2, x3, not {a!r}") from None
-    if len(comps) != 3:
-        raise ValueError(f"a field has three components, got {len(comps)}")
+    if len(comps) != 3 or not all(isinstance(c, sp.Expr) for c in comps):
+        raise ValueError(f"a field is three SymPy expressions in x1, x2, x3, not {a!r}")
+    if any(c.has(sp.nan, sp.zoo, sp.oo, -sp.oo) for c in comps):
+        raise ValueError(f"a field's components must be finite, not {comps}")
     div = sp.simplify(sum(sp.diff(c, xi) for c, xi in zip(comps, x)))
     if div != 0:
         raise ValueError(f"field is not divergence free (div a = {div})")
     return comps  # type: ignore[return-value]
 
 
+def _field_potentials(a, splitting: str) -> tuple[sp.Expr, sp.Expr]:
+    from ..fields import potential_exprs  # the one implementation of MATH.md §3
+
+    pair = potential_exprs(_field(a), x, splitting)
+    if pair is None:
+        raise ValueError(f"SymPy cannot integrate the {splitting.upper()} potentials of {a!r} "
+                         "in closed form (use vpforms.Field, which falls back to quadrature)")
+    return pair
+
+
 def se_field_potentials(a) -> tuple[sp.Expr, sp.Expr]:
     """(F¹, F³) with a = vf1(F¹) + vf3(F³) (eq:vf1, eq:vf3; MATH.md §3), one-dimensional integrals.
 
-    F³ = ∫₀^{x2} a1(x1,s,x3) ds,   F¹ = −∫₀^{x2} a3(x1,s,x3) ds + ∫₀^{x3} a2(x1,0,t) dt.
+    F³ = ∫₀^{x2} a1(x1,s,x3) ds,   F¹ = −∫₀^{x2} a3(x1,s,x3) ds + ∫₀^{x3} a2(x1,0,t) dt
+    (computed by :func:`vpforms.fields.potential_exprs`).
     """
-    a1, a2, a3 = _field(a)
-    s, t = sp.symbols("s_ t_", real=True)
-    F3 = sp.integrate(a1.subs(x2, s), (s, 0, x2))
-    F1 = -sp.integrate(a3.subs(x2, s), (s, 0, x2)) + sp.integrate(
-        a2.subs({x2: 0}).subs(x3, t), (t, 0, x3)
-    )
-    return sp.expand(F1), sp.expand(F3)
+    return _field_potentials(a, "se")
 
 
 def dl_field_potentials(a) -> tuple[sp.Expr, sp.Expr]:
     """(G¹, G²) with a = vf1(G¹) + vf2(G²) (eq:vf1, eq:vf2; MATH.md §3).
 
-    G¹ = ∫₀^{x3} a2(x1,x2,t) dt,   G² = −∫₀^{x3} a1(x1,x2,t) dt + ∫₀^{x1} a3(s,x2,0) ds.
+    G¹ = ∫₀^{x3} a2(x1,x2,t) dt,   G² = −∫₀^{x3} a1(x1,x2,t) dt + ∫₀^{x1} a3(s,x2,0) ds
+    (computed by :func:`vpforms.fields.potential_exprs`).
     """
-    a1, a2, a3 = _field(a)
-    s, t = sp.symbols("s_ t_", real=True)
-    G1 = sp.integrate(a2.subs(x3, t), (t, 0, x3))
-    G2 = -sp.integrate(a1.subs(x3, t), (t, 0, x3)) + sp.integrate(
-        a3.subs({x3: 0}).subs(x1, s), (s, 0, x1)
-    )
-    return sp.expand(G1), sp.expand(G2)
+    return _field_potentials(a, "dl")
 
 
 # ------------------------------------------------------------------------------------------------
@@ -486,6 +498,14 @@ def to_generic(case: Case | tuple, phi: sp.Expr, Phi: sp.Expr) -> GenericPotenti
     """
     cf = case_forms(case)
     check_dependencies(cf.case, phi, Phi)
+    reserved = set(y) | set(Y)
+    for name, e in (("phi", phi), ("Phi", Phi)):
+        bad = sp.sympify(e).free_symbols & reserved
+        if bad:
+            raise ValueError(
+                f"{name} contains the generic symbols {', '.join(sorted(map(str, bad)))}: "
+                "to_generic takes potentials in the paper's variables x1..x3, X1..X3"
+            )
     xp, xc, xm = cf.x_roles
     Xp, Xc, Xm = cf.X_roles
     phi_g = cf.c_phi * sp.sympify(phi).xreplace({xm: y[2], xc: y[1], Xm: Y[2]})
