@@ -85,8 +85,10 @@ def test_random_integer_matrices(M):
 
 # -- all 36 cases from the five representatives ----------------------------------------------------
 def _P(pi: Perm) -> sp.Matrix:
-    """x·π = P_π x, (P_π)_{ij} = δ_{j, π(i)}."""
-    return sp.Matrix(3, 3, lambda i, j: 1 if j == pi(i + 1) - 1 else 0)
+    """x·π = P_π x: the columns of P_π are e_j·π (Perm.act), i.e. (P_π)_{ij} = δ_{j, π(i)}."""
+    P = sp.Matrix(pi.act(np.eye(3, dtype=int)).T)
+    assert P == sp.Matrix(3, 3, lambda i, j: 1 if j == pi(i + 1) - 1 else 0)
+    return P
 
 
 def _potentials_for(case: Case, A: sp.Matrix):

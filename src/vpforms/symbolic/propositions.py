@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
 import sympy as sp
 
 from .._case import Case, cases
@@ -88,12 +89,13 @@ def check_volpotinv(sign: int = 1, same_sign: bool = True) -> PropositionCheck:
 
 
 def _act(sigma: Perm, Sigma: Perm, fmap):
-    """((σ,Σ)·f)(x) = f(x·σ)·Σ⁻¹ for a map given as a callable on 3-tuples."""
+    """((σ,Σ)·f)(x) = f(x·σ)·Σ⁻¹ for a map given as a callable on 3-tuples (the right action
+    is :meth:`vpforms.Perm.act`, on object arrays of SymPy expressions)."""
     Sinv = Sigma.inverse()
 
     def g(v):
-        w = fmap(tuple(v[sigma(i) - 1] for i in (1, 2, 3)))
-        return tuple(w[Sinv(i) - 1] for i in (1, 2, 3))
+        w = fmap(tuple(sigma.act(np.array(v, dtype=object))))
+        return tuple(Sinv.act(np.array(w, dtype=object)))
 
     return g
 
