@@ -279,3 +279,12 @@ def test_to_generic_rejects_potentials_already_in_generic_symbols():
     se = R.REPRESENTATIVES["SE+SE"]
     with pytest.raises(ValueError, match="generic symbols y1"):
         R.to_generic(se, x[1] * X[2] + y[0], x[0] * X[1])
+
+
+def test_a_sign_other_than_plus_or_minus_one_is_rejected():
+    rec = R.s1_potentials()
+    for bad in (2, 0, 0.5, True):
+        with pytest.raises(ValueError, match="sign"):
+            sym.consistency(rec.case, rec.phi, rec.Phi, G, sign=bad)
+        with pytest.raises(ValueError, match="sign"):
+            sym.prove_case(rec.case, sign=bad)

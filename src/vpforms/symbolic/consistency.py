@@ -24,8 +24,8 @@ import sympy as sp
 from .._case import Case
 from ._symbols import A as A_SYM
 from ._symbols import X, h, x
-from .forms import case_forms
-from .recipes import _field, as_matrix, check_dependencies, linear_field
+from .forms import case_forms, resolve_sign
+from .recipes import _field, _is_matrix_like, as_matrix, check_dependencies, linear_field
 
 __all__ = ["ConsistencyResult", "consistency", "generic_traceless_matrix"]
 
@@ -95,7 +95,7 @@ class ConsistencyResult:
 def _lm_residuals(case: Case, phi, Phi, sign: int | None):
     """(E₁, E₂, E₃) for LM potentials; E₂ = c_Φ ∂_{x₋}Φ + s c_φ ∂_{X₋}φ is volpot2 for any sign."""
     cf = case_forms(case)
-    s = cf.sign if sign is None else int(sign)
+    s = resolve_sign(cf, sign)
     xp, xc, xm = cf.x_roles
     Xp, Xc, Xm = cf.X_roles
     E1 = cf.c_phi * sp.diff(phi, xc) - xp  # volpot1: x₊ = ∂_{x∘}φ_g
@@ -138,9 +138,7 @@ def consistency(
     if not isinstance(case, Case):
         case = Case(*case)
     matrix = None
-    if isinstance(field, sp.MatrixBase) or hasattr(field, "shape") or (
-        hasattr(field, "__len__") and any(hasattr(r, "__len__") for r in field)
-    ):
+    if _is_matrix_like(field):
         matrix = as_matrix(field)
         comps = linear_field(matrix)
         sub = {A_SYM[i, j]: matrix[i, j] for i in range(3) for j in range(3)}

@@ -209,6 +209,15 @@ def case_forms(case: Case | tuple) -> CaseForms:
     return _case_forms(tuple(case.sigma), tuple(case.Sigma))
 
 
+def resolve_sign(cf: CaseForms, sign: int | None) -> int:
+    """The sign of volpot2: sgn τ of the case if ``sign`` is None, else ``sign`` (±1 only)."""
+    if sign is None:
+        return cf.sign
+    if isinstance(sign, bool) or sign not in (1, -1):
+        raise ValueError(f"sign must be +1 or -1 (or None for sgn τ), got {sign!r}")
+    return int(sign)
+
+
 def _slot_diff(P: Potential, args: tuple, i: int) -> sp.Expr:
     """∂_i P at the point ``args`` (distinct symbols), i = 1, 2, 3."""
     return sp.diff(P(*args), args[i - 1])
@@ -235,9 +244,7 @@ def generic_equations(
         E₃ = ∂₂Φ_g(X₋, X∘, x₋) − X₊.
     """
     cf = case_forms(case)
-    s = cf.sign if sign is None else int(sign)
-    if s not in (1, -1):
-        raise ValueError(f"sign must be +1 or -1, got {sign!r}")
+    s = resolve_sign(cf, sign)
     phi_g = phi_g or _undefined("phi_g")
     Phi_g = Phi_g or _undefined("Phi_g")
     xp, xc, xm = cf.x_roles
@@ -313,7 +320,7 @@ def prove_case(case: Case | tuple, sign: int | None = None) -> CaseProof:
     fail and det Df = −1.
     """
     cf = case_forms(case)
-    s = cf.sign if sign is None else int(sign)
+    s = resolve_sign(cf, sign)
     phi_g, Phi_g = _undefined("phi_g"), _undefined("Phi_g")
     E = generic_equations(cf.case, phi_g, Phi_g, s)
     xp, xc, xm = cf.x_roles
