@@ -1,7 +1,8 @@
 """vpforms.symbolic — the SymPy layer: the 36 generating one-forms, their proofs, tables,
 consistency of potentials, and the paper's errata, all computed from (σ, Σ).
 
-Import on demand (``import vpforms.symbolic``); ``import vpforms`` does not load SymPy.
+``import vpforms.symbolic`` gives the whole layer (``import vpforms`` already loads SymPy: :class:`vpforms.Field`
+and the method recipes use it).
 
 * :func:`case_forms` — ν, ν̃, λ (LM normalisation), determining equations, twist conditions;
   :func:`identify_case` — the case of a given one-form λ = φ dx_l + Φ dX_m;
