@@ -46,6 +46,7 @@ def discrete_lagrangian(H, theta: float, newton: dict):
 
     dB = jax.grad(B, argnums=0)
 
+    @jax.jit  # traced once per method and reused at every call site (the engine calls L often)
     def pbar_of(q0, q1, c, h, p_guess):
         return newton_scalar(B, dB, p_guess, (q0, q1, c, h), **opts)[0]
 
@@ -71,7 +72,7 @@ def discrete_lagrangian(H, theta: float, newton: dict):
         tangent = sum(g * jnp.asarray(t, float) for g, t in zip(grad, (dq0, dq1, dc, dh)))
         return value, tangent
 
-    return L
+    return jax.jit(L)
 
 
 def dl_stage(H, theta: float, newton: dict):
@@ -103,6 +104,7 @@ def dl_stage(H, theta: float, newton: dict):
 
     dg_q = jax.grad(g_q, argnums=0)
 
+    @jax.jit
     def stage(q0, p0, c, h):
         """(q₁, p₁, status, iterations)."""
         q1, s1, n1 = newton_scalar(g_q, dg_q, q0 + h * dHp(q0, p0, c), (q0, p0, c, h), **opts)
