@@ -288,3 +288,13 @@ def test_a_sign_other_than_plus_or_minus_one_is_rejected():
             sym.consistency(rec.case, rec.phi, rec.Phi, G, sign=bad)
         with pytest.raises(ValueError, match="sign"):
             sym.prove_case(rec.case, sign=bad)
+
+
+def test_disallowed_variables_are_caught_everywhere_potentials_enter():
+    rec = R.s1_potentials()  # φ(x1, x2, X1), Φ(x1, X1, X2)
+    with pytest.raises(ValueError, match="x3"):
+        rec.subs({A_SYM[0, 0]: x[2]})
+    with pytest.raises(ValueError, match="X3"):
+        sym.lm_equations(rec.case, rec.phi + X[2], rec.Phi)
+    with pytest.raises(ValueError, match="x2"):
+        sym.lm_equations(rec.case, rec.phi, rec.Phi + x[1])

@@ -50,6 +50,7 @@ __all__ = [
     "prove_all",
     "cyclic_primitive",
     "identify_case",
+    "check_dependencies",
 ]
 
 Potential = Callable[..., sp.Expr]
@@ -264,6 +265,7 @@ def lm_equations(
     Returned unevaluated (``evaluate=False``) so that they display as printed.
     """
     cf = case_forms(case)
+    check_dependencies(cf.case, 0 if phi is None else phi, 0 if Phi is None else Phi)
     if phi is None or Phi is None:
         phi0, Phi0 = cf.undefined_potentials()
         phi = phi0 if phi is None else phi
@@ -275,6 +277,28 @@ def lm_equations(
         sp.Eq(sp.diff(phi, Xm), sp.diff(Phi, xm), evaluate=False),
         sp.Eq(Xp, cf.c_Phi * sp.diff(Phi, Xc), evaluate=False),
     )
+
+
+def check_dependencies(case: Case | tuple, phi: sp.Expr, Phi: sp.Expr) -> None:
+    """ValueError if φ or Φ depends on a variable its case does not allow.
+
+    φ may depend on (x₋, x∘, X₋) and Φ on (x₋, X₋, X∘) of the case (plus any parameter that is not
+    one of x1..x3, X1..X3).
+    """
+    cf = case_forms(case)
+    coords = set(x) | set(X)
+    for name, expr, allowed in (("phi", phi, cf.phi_args), ("Phi", Phi, cf.Phi_args)):
+        try:
+            expr = sp.sympify(expr)
+        except (TypeError, sp.SympifyError):
+            raise ValueError(f"{name} must be a SymPy expression, got {expr!r}") from None
+        bad = (expr.free_symbols & coords) - set(allowed)
+        if bad:
+            raise ValueError(
+                f"{name} depends on {', '.join(sorted(map(str, bad)))}, which case {cf.case} does "
+                f"not allow: {name} must be a function of "
+                f"({', '.join(map(str, allowed))}) only"
+            )
 
 
 # ------------------------------------------------------------------------------------------------

@@ -40,7 +40,7 @@ import sympy as sp
 from .._case import Case
 from ._symbols import A as A_SYM
 from ._symbols import X, X1, X2, X3, Y, h, x, x1, x2, x3, y
-from .forms import case_forms
+from .forms import case_forms, check_dependencies
 
 __all__ = [
     "SYMBOLS",
@@ -116,12 +116,17 @@ class Recipe:
         return to_generic(self.case, self.phi, self.Phi)
 
     def subs(self, mapping) -> "Recipe":
-        """The recipe with parameters substituted (e.g. a concrete matrix, {a11: 1, ...})."""
+        """The recipe with parameters substituted (e.g. a concrete matrix, {a11: 1, ...}).
+
+        ValueError if the substitution makes a potential depend on a variable its case does not
+        allow (e.g. {a11: x3})."""
+        phi, Phi = sp.sympify(self.phi).subs(mapping), sp.sympify(self.Phi).subs(mapping)
+        check_dependencies(self.case, phi, Phi)
         return Recipe(
             self.name,
             self.case,
-            sp.sympify(self.phi).subs(mapping),
-            sp.sympify(self.Phi).subs(mapping),
+            phi,
+            Phi,
             self.label,
             self.printed,
             self.fixes,
@@ -432,28 +437,6 @@ def dl_dl_potentials(
 # ------------------------------------------------------------------------------------------------
 # Variables check and the conversion to the generic order of GeneratingMap
 # ------------------------------------------------------------------------------------------------
-def check_dependencies(case: Case | tuple, phi: sp.Expr, Phi: sp.Expr) -> None:
-    """ValueError if φ or Φ depends on a variable its case does not allow.
-
-    φ may depend on (x₋, x∘, X₋) and Φ on (x₋, X₋, X∘) of the case (plus any parameter that is not
-    one of x1..x3, X1..X3).
-    """
-    cf = case_forms(case)
-    coords = set(x) | set(X)
-    for name, expr, allowed in (("phi", phi, cf.phi_args), ("Phi", Phi, cf.Phi_args)):
-        try:
-            expr = sp.sympify(expr)
-        except (TypeError, sp.SympifyError):
-            raise ValueError(f"{name} must be a SymPy expression, got {expr!r}") from None
-        bad = (expr.free_symbols & coords) - set(allowed)
-        if bad:
-            raise ValueError(
-                f"{name} depends on {', '.join(sorted(map(str, bad)))}, which case {cf.case} does "
-                f"not allow: {name} must be a function of "
-                f"({', '.join(map(str, allowed))}) only"
-            )
-
-
 @dataclass(frozen=True)
 class GenericPotentials:
     """Potentials in the generic order of :class:`vpforms.GeneratingMap` (eq:volpot).
