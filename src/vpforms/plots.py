@@ -123,9 +123,10 @@ def order_figure(
         (line,) = ax.loglog(hs[good], er[good], "-", lw=1.2, alpha=0.7)
         c = line.get_color()
         m = markers[i % len(markers)]
-        ax.loglog(hs[good & used], er[good & used], m, color=c, ms=6,
+        ms = max(9.0 - 1.3 * i, 4.0)  # shrinking markers: coinciding curves stay visible
+        ax.loglog(hs[good & used], er[good & used], m, color=c, ms=ms,
                   label=f"{name}: observed order {fit.order:.2f}")
-        ax.loglog(hs[good & ~used], er[good & ~used], m, color=c, ms=6, mfc="none")
+        ax.loglog(hs[good & ~used], er[good & ~used], m, color=c, ms=ms, mfc="none")
         all_h.append(hs[good])
         all_e.append(er[good])
     if all_h:
