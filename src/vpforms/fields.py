@@ -155,11 +155,15 @@ def _check_box(box: Any) -> tuple[tuple[float, float], ...]:
     return tuple((float(lo), float(hi)) for lo, hi in b)
 
 
+def uniform_in_box(box: Any, rng: np.random.Generator, n: int) -> np.ndarray:
+    """n uniform random points in the box drawn from ``rng``, shape (n, 3)."""
+    b = np.asarray(_check_box(box))
+    return b[:, 0] + (b[:, 1] - b[:, 0]) * rng.random((n, 3))
+
+
 def sample_box(box: Any, n: int, seed: int = 0) -> np.ndarray:
     """n uniform random points in the box (seeded), shape (n, 3)."""
-    b = np.asarray(_check_box(box))
-    rng = np.random.default_rng(seed)
-    return b[:, 0] + (b[:, 1] - b[:, 0]) * rng.random((n, 3))
+    return uniform_in_box(box, np.random.default_rng(seed), n)
 
 
 def _lambdify_scalar(expr: Any, symbols: Sequence[sp.Symbol]) -> Scalar:

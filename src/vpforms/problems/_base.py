@@ -9,9 +9,8 @@ from typing import Any
 import jax
 import jax.numpy as jnp
 import numpy as np
-import sympy as sp
 
-from ..fields import SYMBOLS, Field
+from ..fields import SYMBOLS, Field, _lambdify_scalar, uniform_in_box
 
 __all__ = ["Problem", "invariant_callables", "box_sampler"]
 
@@ -63,10 +62,8 @@ class Problem:
         if not isinstance(n, (int, np.integer)) or n < 0:
             raise ValueError(f"n must be a non-negative integer; got {n!r}")
         rng = np.random.default_rng(seed)
-        if self.sampler is not None:
-            return np.asarray(self.sampler(rng, int(n)), dtype=float).reshape(int(n), 3)
-        b = np.asarray(self.box, dtype=float)
-        return b[:, 0] + (b[:, 1] - b[:, 0]) * rng.random((int(n), 3))
+        sampler = self.sampler if self.sampler is not None else box_sampler(self.box)
+        return np.asarray(sampler(rng, int(n)), dtype=float).reshape(int(n), 3)
 
     def invariant_values(self, x: Any) -> dict[str, jax.Array]:
         """Every invariant at x of shape (3,) or (N, 3)."""
@@ -81,11 +78,11 @@ def invariant_callables(exprs: Mapping[str, Any], symbols=SYMBOLS) -> dict[str, 
     """SymPy invariants → JAX callables of a point x of shape (3,)."""
     out = {}
     for k, e in exprs.items():
-        f = sp.lambdify(tuple(symbols), e, modules="jax")
+        g = _lambdify_scalar(e, symbols)
 
-        def inv(x, _f=f):
+        def inv(x, _g=g):
             x = jnp.asarray(x, dtype=float)
-            return jnp.asarray(_f(x[0], x[1], x[2]), dtype=float) + jnp.zeros_like(x[0])
+            return _g(x[0], x[1], x[2])
 
         inv.__name__ = k
         out[k] = inv
@@ -93,5 +90,5 @@ def invariant_callables(exprs: Mapping[str, Any], symbols=SYMBOLS) -> dict[str, 
 
 
 def box_sampler(box) -> Callable[[np.random.Generator, int], np.ndarray]:
-    b = np.asarray(box, dtype=float)
-    return lambda rng, n: b[:, 0] + (b[:, 1] - b[:, 0]) * rng.random((n, 3))
+    """A sampler (rng, n) -> (n, 3) uniform in the box (:func:`vpforms.fields.uniform_in_box`)."""
+    return lambda rng, n: uniform_in_box(box, rng, n)
