@@ -53,12 +53,24 @@ def test_lm_normalisation_constants_and_the_sign_rule():
 
 
 def test_compatibility_condition_always_reads_dXm_phi_equals_dxm_Phi():
+    """volpot2 with the sign rule, written for the LM potentials φ = c_φ φ_g, Φ = c_Φ Φ_g, is
+    exactly ∂_{X₋}φ = ∂_{x₋}Φ in every case (derived from generic_equations, not from the
+    displayed lm_equations, which are then checked to say the same)."""
     for c in CASES:
         cf = sym.case_forms(c)
         phi, Phi = cf.undefined_potentials()
-        _, compat, _ = sym.lm_equations(c)
-        assert compat.lhs == sp.diff(phi, cf.X_roles[2])
-        assert compat.rhs == sp.diff(Phi, cf.x_roles[2])
+        xm, Xc, Xm = cf.x_roles[2], cf.X_roles[1], cf.X_roles[2]
+        xc = cf.x_roles[1]
+        # φ_g(Y3, y2, y3) = c_φ φ(x₋ = y3, x∘ = y2, X₋ = Y3) (c_φ = ±1 is its own inverse)
+        phi_g = lambda a, b, d, cf=cf, phi=phi: cf.c_phi * phi.xreplace(  # noqa: E731
+            {xm: d, xc: b, Xm: a})
+        Phi_g = lambda a, b, d, cf=cf, Phi=Phi: cf.c_Phi * Phi.xreplace(  # noqa: E731
+            {xm: d, Xc: b, Xm: a})
+        _, E2, _ = sym.generic_equations(c, phi_g, Phi_g)
+        compat = sp.diff(phi, Xm) - sp.diff(Phi, xm)
+        assert sp.expand(cf.c_Phi * E2 + compat) == 0
+        _, shown, _ = sym.lm_equations(c)
+        assert shown.lhs - shown.rhs == compat
 
 
 def test_class_counts_and_tab123123_block():
