@@ -453,3 +453,10 @@ def test_non_traceable_callables_and_bad_matrices_raise_value_error():
     # the trace tolerance is relative to the matrix: a tiny non-traceless matrix is not accepted
     with pytest.raises(ValueError, match="tr A"):
         Field.linear(np.diag([1e-14, 1e-14, 1e-14]))
+
+
+def test_components_jax_cannot_evaluate_are_rejected_at_construction():
+    with pytest.raises(ValueError, match="undefined functions"):
+        Field.from_sympy((sp.Function("g")(x2), x3, x1), SYMBOLS)
+    with pytest.raises(ValueError, match="cannot be evaluated with JAX"):
+        Field.from_sympy((sp.besselj(0, x2), x3, x1), SYMBOLS)

@@ -33,6 +33,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import sympy as sp
+from sympy.core.function import AppliedUndef
 
 from . import _config  # noqa: F401  (float64)
 from ._errors import NotDivergenceFreeError, VPFormsError
@@ -495,6 +496,12 @@ class Field:
                 f"coordinates {[str(s) for s in symbols]}; give their values in params"
             )
         _check_finite_real(exprs, f"field {name!r}: component a")
+        undefined = set().union(*(e.atoms(AppliedUndef) for e in exprs))
+        if undefined:
+            raise ValueError(
+                f"field {name!r} contains undefined functions {sorted(map(str, undefined))}: "
+                "give every component as an explicit expression"
+            )
         box = _check_box(box)
 
         # exact divergence check; only an undecided (or Float, i.e. rounded) divergence is
@@ -525,6 +532,15 @@ class Field:
                 )
 
         comps = tuple(_lambdify_scalar(e, symbols) for e in exprs)
+        centre = [0.5 * (lo + hi) for lo, hi in box]
+        for i, c in enumerate(comps):
+            try:
+                c(*centre)
+            except Exception as err:  # noqa: BLE001 - e.g. a SymPy function JAX does not know
+                raise ValueError(
+                    f"component a{i + 1} = {exprs[i]} of field {name!r} cannot be evaluated with "
+                    f"JAX ({type(err).__name__}: {str(err).splitlines()[0]})"
+                ) from err
         field = cls(
             comps,
             name=name,
