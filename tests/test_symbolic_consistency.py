@@ -298,3 +298,13 @@ def test_disallowed_variables_are_caught_everywhere_potentials_enter():
         sym.lm_equations(rec.case, rec.phi + X[2], rec.Phi)
     with pytest.raises(ValueError, match="x2"):
         sym.lm_equations(rec.case, rec.phi, rec.Phi + x[1])
+
+
+def test_lambdify_needs_every_free_parameter():
+    g = R.s1_potentials().generic()
+    assert h in g.params
+    with pytest.raises(ValueError, match="missing h"):
+        g.lambdify(params=tuple(p for p in g.params if p != h))
+    phi, Phi = g.lambdify()  # all parameters: callables returning numbers
+    vals = [float(v) for v in (1.0, 0.5, 0.25)] + [0.1 if p == h else 1.0 for p in g.params]
+    assert np.isfinite(float(phi(*vals))) and np.isfinite(float(Phi(*vals)))

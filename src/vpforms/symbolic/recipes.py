@@ -464,6 +464,13 @@ class GenericPotentials:
         ``functools.partial``) to get the three-argument potentials GeneratingMap expects.
         """
         params = tuple(self.params if params is None else params)
+        missing = set(self.params) - set(params)
+        if missing:
+            raise ValueError(
+                f"params must include every free parameter of the potentials; missing "
+                f"{', '.join(sorted(map(str, missing)))} (bind values with .phi.subs first, or "
+                "pass them as params)"
+            )
         return (
             sp.lambdify(self.phi_args + params, self.phi, modules=modules),
             sp.lambdify(self.Phi_args + params, self.Phi, modules=modules),
