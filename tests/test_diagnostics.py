@@ -190,3 +190,23 @@ def test_abc_field_helper_is_divergence_free():
 
     x = jnp.asarray(np.random.default_rng(0).uniform(0, 6, 3))
     assert abs(float(jnp.trace(jax.jacfwd(abc)(x)))) < 1e-15
+
+
+def test_poincare_long_runs_flush_buffers_and_cap():
+    # 2500 steps = 20 segments, buffers emptied after each: counts and points must agree with one
+    # run per particle; max_crossings keeps the first crossings and reports the rest as dropped
+    x0 = np.array([[1.0, 0.0, 0.0], [0.5, 0.5, 0.1]])
+    h, n = 0.05, 2500  # t = 125: ~20 turns
+    sec = poincare_section(RK_ROT, x0, h, n, axis=1, value=0.0, direction=1)
+    th0 = np.arctan2(x0[:, 1], x0[:, 0])
+    T = h * n
+    np.testing.assert_array_equal(sec.counts, np.floor((T + th0) / (2 * np.pi)) - np.floor(th0 / (2 * np.pi)))
+    assert sec.dropped == 0 and sec.points.shape[0] == sec.counts.sum()
+    assert np.all(np.diff(sec.t[sec.particle == 0]) > 6.0)  # ordered, one per turn
+    one = poincare_section(RK_ROT, x0[1:], h, n, axis=1, value=0.0, direction=1)
+    np.testing.assert_allclose(one.points, sec.points[sec.particle == 1], rtol=0, atol=1e-15)
+    capped = poincare_section(RK_ROT, x0, h, n, axis=1, value=0.0, direction=1, max_crossings=5)
+    assert np.all(np.bincount(capped.particle) == 5)
+    assert capped.dropped == sec.counts.sum() - 10
+    np.testing.assert_allclose(capped.t, np.concatenate([sec.t[sec.particle == p][:5] for p in (0, 1)]),
+                               rtol=0, atol=1e-12)

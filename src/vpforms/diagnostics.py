@@ -318,8 +318,9 @@ class PoincareSection:
     ``points`` (M, 3) the crossing points (lifted coordinates: not reduced modulo the period);
     ``particle`` (M,) the particle index; ``step`` (M,) the step n with the crossing in
     [t_n, t_{n+1}]; ``theta`` (M,) its fraction of the step; ``t`` (M,) the crossing time
-    t0 + (n + θ)h; ``counts`` (N,) crossings per particle (including ``dropped`` ones beyond
-    ``max_crossings``); ``interpolation`` and ``interpolation_order`` say how they were located.
+    t0 + (n + θ)h; ``counts`` (N,) crossings detected per particle (including the ``dropped`` ones
+    not kept: beyond ``max_crossings`` or a full segment buffer); ``interpolation`` and
+    ``interpolation_order`` say how they were located.
     """
 
     points: np.ndarray
@@ -483,7 +484,9 @@ def poincare_section(
     direction:
         +1 counts crossings with x_axis increasing, −1 decreasing, 0 both.
     max_crossings:
-        Buffer per particle (default n_steps // 4 + 8); extra crossings are counted as ``dropped``.
+        Keep at most this many (the first) crossings per particle; default all.  Crossings are
+        buffered per segment of ≤ 1024 steps (room for one every 4 steps) and moved to the host
+        after each segment; any not kept are counted in ``dropped``.
     interpolation:
         How a crossing inside the step x_n → x_{n+1} = Ψ_h(x_n) is located:
 
@@ -493,8 +496,8 @@ def poincare_section(
           O(h^{p+1}) — interpolation of order p for a method of order p — and it lies on the plane.
         * ``"linear"``: the chord x_n + θ(x_{n+1} − x_n), interpolation order 1 (error O(h²)).
 
-    The detection runs inside the ``lax.scan`` of the orbit (memory O(N · max_crossings)); the
-    location runs afterwards, batched over all crossings.
+    The detection runs inside the ``lax.scan`` of the orbit (device memory O(chunk · 256) per
+    segment, independent of n_steps); the location runs afterwards, batched over all crossings.
     """
     if axis not in (0, 1, 2):
         raise ValueError(f"axis must be 0, 1 or 2 (0-based), got {axis}")
@@ -507,42 +510,52 @@ def poincare_section(
     pts, _ = _points(x0)
     N = pts.shape[0]
     n_steps = int(n_steps)
-    K = int(max_crossings) if max_crossings is not None else n_steps // 4 + 8
+    # segments of ≤ 1024 steps (≥ ~20 per chunk for a live bar); the crossing buffers are emptied
+    # to the host after every segment, so memory does not grow with n_steps
+    seg = max(1, min(n_steps, -(-n_steps // 20), 1024))
+    K = seg // 4 + 8  # buffer per particle and segment: a crossing every ≤ 4 steps still fits
+    cap = None if max_crossings is None else int(max_crossings)
+    if cap is not None and cap < 0:
+        raise ValueError(f"max_crossings must be ≥ 0, got {max_crossings}")
     C = min(N, chunk_size or auto_chunk_size(N, 2 * K))
-    seg = max(1, min(n_steps, -(-n_steps // 20)))  # ~20 compiled calls per chunk: a live bar
     fn = _StepFn(method)
     P = None if period is None else float(period)
     hj, vj = jnp.asarray(float(h)), jnp.asarray(float(value))
 
     cx, cn, cl, cp = [], [], [], []
-    counts = np.zeros(N, dtype=np.int64)
+    counts = np.zeros(N, dtype=np.int64)  # every detected crossing
+    kept = np.zeros(N, dtype=np.int64)  # the recorded ones
     status = np.zeros(N, dtype=np.int32)
     bar = _Bar(progress, N * n_steps, "Poincaré section")
     try:
         for lo, hi in _chunks(N, C):
             x = jnp.asarray(_pad(pts[lo:hi], C))
             st = jnp.zeros(C, jnp.int32)
-            cnt = jnp.zeros(C, jnp.int32)
+            zero = jnp.zeros(C, jnp.int32)
             bx, bn, bl = jnp.zeros((C, K, 3)), jnp.zeros((C, K), jnp.int32), jnp.zeros((C, K))
+            rows = np.arange(lo, hi)
             done = 0
             while done < n_steps:
                 # fixed-length segments (one compilation); steps past n_steps are skipped
                 x, st, cnt, bx, bn, bl = _poincare_scan(
-                    fn, seg, K, axis, direction, P, x, st, cnt, bx, bn, bl, jnp.asarray(done), hj, vj,
+                    fn, seg, K, axis, direction, P, x, st, zero, bx, bn, bl, jnp.asarray(done), hj, vj,
                     jnp.asarray(n_steps),
                 )
                 L = min(seg, n_steps - done)
                 done += L
-                x.block_until_ready()  # asynchronous dispatch: sync so the bar tracks real work
-                bar.update((hi - lo) * L)
-            cnt_h = np.asarray(cnt)[: hi - lo]
-            counts[lo:hi] = cnt_h
+                cnt_h = np.asarray(cnt)[: hi - lo].astype(np.int64)
+                keep = np.arange(K)[None, :] < np.minimum(cnt_h, K)[:, None]
+                if cap is not None:  # the first max_crossings crossings of each particle
+                    keep &= (kept[rows, None] + np.arange(K)[None, :]) < cap
+                counts[rows] += cnt_h
+                kept[rows] += keep.sum(axis=1)
+                if keep.any():
+                    cx.append(np.asarray(bx)[: hi - lo][keep])
+                    cn.append(np.asarray(bn)[: hi - lo][keep])
+                    cl.append(np.asarray(bl)[: hi - lo][keep])
+                    cp.append(np.broadcast_to(rows[:, None], (hi - lo, K))[keep])
+                bar.update((hi - lo) * L)  # np.asarray(cnt) above synced with the device
             status[lo:hi] = np.asarray(st)[: hi - lo]
-            keep = np.arange(K)[None, :] < np.minimum(cnt_h, K)[:, None]
-            cx.append(np.asarray(bx)[: hi - lo][keep])
-            cn.append(np.asarray(bn)[: hi - lo][keep])
-            cl.append(np.asarray(bl)[: hi - lo][keep])
-            cp.append(np.broadcast_to(np.arange(lo, hi)[:, None], (hi - lo, K))[keep])
     finally:
         bar.close()
     xs = np.concatenate(cx) if cx else np.zeros((0, 3))
@@ -570,7 +583,7 @@ def poincare_section(
         theta=thetas[order],
         t=t0 + (ns[order] + thetas[order]) * float(h),
         counts=counts,
-        dropped=int(np.sum(np.maximum(counts - K, 0))),
+        dropped=int(np.sum(counts - kept)),
         axis=axis,
         value=float(value),
         direction=direction,
