@@ -342,6 +342,9 @@ def test_not_divergence_free_callable_reports_largest_and_where():
         ((x2, x3, x1), (x1, x2), "three"),
         ((x2, x3, x1), (x1, x1, x2), "distinct"),
         ((x2 + sp.Symbol("k"), x3, x1), SYMBOLS, "free symbols"),
+        ((True, x3, x1), SYMBOLS, "scalar SymPy expression"),
+        (([x2], x3, x1), SYMBOLS, "scalar SymPy expression"),
+        ((sp.Eq(x2, 1), x3, x1), SYMBOLS, "scalar SymPy expression"),
     ],
 )
 def test_malformed_sympy_input(exprs, symbols, match):

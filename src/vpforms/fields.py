@@ -482,6 +482,11 @@ class Field:
             exprs = tuple(sp.sympify(e) for e in exprs)
         except (sp.SympifyError, TypeError) as err:
             raise ValueError(f"exprs must be SymPy expressions: {err}") from None
+        for i, e in enumerate(exprs, start=1):
+            if not isinstance(e, sp.Expr):
+                raise ValueError(
+                    f"component a{i} must be a scalar SymPy expression, not {type(e).__name__} {e!r}"
+                )
         if isinstance(symbols, (str, sp.Basic)) or len(symbols) != 3:
             raise ValueError(f"symbols must be three SymPy symbols; got {symbols!r}")
         symbols = tuple(symbols)
