@@ -379,6 +379,10 @@ def test_malformed_shapes_and_callables(abc):
         abc.potentials("xx")
     with pytest.raises(ValueError, match="pair"):
         Field.from_sympy(ABC, SYMBOLS, potentials={"se": (x1,)})
+    with pytest.raises(ValueError, match="scalar SymPy expressions"):
+        Field.from_sympy(ABC, SYMBOLS, potentials={"se": ([x1], x2)})
+    with pytest.raises(ValueError, match="not finite"):
+        Field.from_sympy(ABC, SYMBOLS, potentials={"se": (sp.nan, x2)})
 
 
 # -- quadrature ----------------------------------------------------------------------------------

@@ -562,7 +562,13 @@ class Field:
         )
         if potentials is not None:
             for key, pair in _check_potentials_arg(potentials).items():
-                pair = tuple(sp.sympify(p).xreplace(subs) if subs else sp.sympify(p) for p in pair)
+                try:
+                    pair = tuple(sp.sympify(p) for p in pair)
+                except (sp.SympifyError, TypeError) as err:
+                    raise ValueError(f"{key} potentials must be SymPy expressions: {err}") from None
+                if not all(isinstance(p, sp.Expr) for p in pair):
+                    raise ValueError(f"{key} potentials must be scalar SymPy expressions; got {pair!r}")
+                pair = tuple(p.xreplace(subs) if subs else p for p in pair)
                 _check_finite_real(pair, f"{key.upper()} potential ")
                 extra = set().union(*(p.free_symbols for p in pair)) - set(symbols)
                 if extra:
