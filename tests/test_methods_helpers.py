@@ -85,8 +85,8 @@ def global_errors(step, x0, T: float, ns, ref):
     return np.asarray(errs)
 
 
-def step_det(method):
-    """One compiled function per method: G(x (N,3), h) → (X, det J, status)."""
+def step_jac(method):
+    """One compiled function per method: G(x (N,3), h) → (X, J, status)."""
 
     def one(p, h):
         def fwd(z):
@@ -94,7 +94,18 @@ def step_det(method):
             return X, (X, st)
 
         J, (X, st) = jax.jacfwd(fwd, has_aux=True)(p)
-        return X, jnp.linalg.det(J), st
+        return X, J, st
 
     f = jax.jit(jax.vmap(one, in_axes=(0, None)))
     return lambda x, h: f(jnp.asarray(x, float), jnp.asarray(h, float))
+
+
+def step_det(method):
+    """G(x (N,3), h) → (X, det J, status), one compilation per method."""
+    f = step_jac(method)
+
+    def g(x, h):
+        X, J, st = f(x, h)
+        return X, jnp.linalg.det(J), st
+
+    return g
