@@ -9,7 +9,6 @@
   methods, including S1 through Quispel's correction map on a nonlinear field.
 """
 
-import itertools
 from math import factorial
 
 import jax

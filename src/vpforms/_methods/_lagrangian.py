@@ -20,7 +20,6 @@ plain autodiff of the formula would carry, which is large near the fold ∂²H/�
 
 from __future__ import annotations
 
-from functools import partial
 
 import jax
 import jax.numpy as jnp

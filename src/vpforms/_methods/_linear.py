@@ -7,7 +7,6 @@ from __future__ import annotations
 from functools import lru_cache
 
 import numpy as np
-import sympy as sp
 
 from .._map import GeneratingMap
 from ..symbolic import recipes as _recipes

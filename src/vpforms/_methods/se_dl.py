@@ -137,7 +137,8 @@ class SEDL(DLPredictor, GeneratingMethod):
         if x is None:
             raise ValueError("the DL potentials need the point x to select the root p̄ of L_d")
         L1, s1, G2 = self._L1, self._s1, self._G2
-        p_guess = -s1 * jax.lax.stop_gradient(x[2])  # volpot1: p₀ = −∂_{q₀}L_d¹ = −s1·x₃... so p̄ ≈ −s1·x₃
+        # volpot1: s1·∂_{q₀}L_d¹ = x₃, so p₀ = −∂_{q₀}L_d¹ = −s1·x₃ and p̄ = p₀ + O(h)
+        p_guess = -s1 * jax.lax.stop_gradient(x[2])
 
         def phi(X2, x2, x1):  # φ(Y₃, y₂, y₃) = φ(X₂, x₂, x₁)
             return s1 * L1(x2, X2, x1, h, p_guess)
