@@ -15,6 +15,7 @@ import os
 import time
 
 import numpy as np
+import pytest
 
 from vpforms import cases
 from vpforms._methods import scheme
@@ -71,6 +72,7 @@ def check_all_cases(field_name: str, T: float = 0.4, ns=(4, 8, 16, 32)):
     return report
 
 
+@pytest.mark.slow  # ≈ 1–1.5 min: one compilation per case (runs in CI)
 def test_all_36_cases_abc():
     # T = 0.1 keeps the trajectories inside (0, π/2)³, away from the fold planes of the DL classes
     # (sin or cos of one coordinate = 0, where their generating forms cease to exist)
