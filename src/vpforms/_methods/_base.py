@@ -33,6 +33,7 @@ import jax.numpy as jnp
 
 from .._case import Case
 from .._errors import RESULTS, VPFormsError, raise_for_status
+from .._map import _as_points, _batched
 from .._perm import Perm, as_perm
 
 __all__ = ["Method", "GeneratingMethod", "Relabelled", "Adjoint", "RecipeError", "merge_status"]
@@ -42,20 +43,9 @@ class RecipeError(VPFormsError, ValueError):
     """A class recipe cannot be applied to this field (e.g. a zero coefficient a₁₃ for S1)."""
 
 
-def as_points(x: Any) -> jax.Array:
-    x = jnp.asarray(x, dtype=jnp.result_type(float))
-    if x.ndim == 0 or x.shape[-1] != 3:
-        raise ValueError(f"x must have shape (3,) or (N, 3); got shape {tuple(x.shape)}")
-    return x
-
-
-def batched(fn, x: jax.Array):
-    """Apply a per-point function (3,) → pytree to (3,) or (..., 3) by vmap over the points."""
-    if x.ndim == 1:
-        return fn(x)
-    lead = x.shape[:-1]
-    out = jax.vmap(fn)(x.reshape(-1, 3))
-    return jax.tree_util.tree_map(lambda o: o.reshape(*lead, *o.shape[1:]), out)
+# the engine's own point helpers: (3,) or (..., 3) arrays, vmapped per point
+as_points = _as_points
+batched = _batched
 
 
 def merge_status(*codes):
