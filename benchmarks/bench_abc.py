@@ -194,7 +194,7 @@ def main(argv=None) -> int:
     except ImportError:  # before the methods are re-exported at the top level
         from vpforms._methods import compose, scheme
     from vpforms.diagnostics import reference_solution
-    from vpforms.integrate import integrate
+    from vpforms import integrate
 
     sizes = [int(s) for s in args.sizes.split(",")]
     h, T = args.h, args.T

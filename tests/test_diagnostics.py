@@ -21,7 +21,7 @@ from vpforms.diagnostics import (
     poincare_section,
     reference_solution,
 )
-from vpforms.integrate import RK4, integrate
+from vpforms import RK4, integrate
 
 from .test_integrate import SE, abc
 

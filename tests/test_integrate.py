@@ -16,7 +16,7 @@ import pytest
 
 import vpforms
 from vpforms import RESULTS, Case, GeneratingMap
-from vpforms.integrate import RK4, Solution, integrate
+from vpforms import RK4, Solution, integrate
 
 A, B, C = 1.0, math.sqrt(2 / 3), math.sqrt(1 / 3)
 

@@ -33,7 +33,7 @@ from ._methods import (
     compose,
     scheme,
 )
-from .integrate import RK4, Solution, integrate  # noqa: E402  (the function shadows the module name)
+from ._integrate import RK4, Solution, integrate  # noqa: E402
 from . import diagnostics  # noqa: E402
 
 __version__ = "0.1.0"

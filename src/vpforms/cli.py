@@ -136,7 +136,7 @@ def _method(field, cls: str = "SE+SE", case=None, order: int = 1, fast: bool = F
 
 
 def _make_method(field, cls, case, order, fast, theta):
-    from .integrate import RK4
+    from ._integrate import RK4
 
     if str(cls).strip().lower() == "rk4":
         if order != 1 or case is not None:
@@ -249,7 +249,7 @@ def _summary_table(title: str, rows: dict[str, Any]):
 def _cmd_run(args, console) -> int:
     import numpy as np
 
-    from .integrate import integrate
+    from ._integrate import integrate
 
     prob = _problem(args)
     method = _method_from_args(args, prob.field)
@@ -382,7 +382,7 @@ def _drift_panels(prob, method, h, steps, n_particles, seed, console, label=None
     import numpy as np
 
     from .diagnostics import invariant_drift, log_det
-    from .integrate import RK4, integrate
+    from ._integrate import RK4, integrate
 
     x0 = prob.initial_conditions(n_particles, seed=seed)
     label = label or "vpforms " + getattr(method, "name", "method")

@@ -28,7 +28,7 @@ from jax import lax
 
 from . import _config  # noqa: F401
 from ._errors import RESULTS
-from .integrate import _Bar, _StepFn, auto_chunk_size, integrate
+from ._integrate import _Bar, _StepFn, auto_chunk_size, integrate
 
 __all__ = [
     "LogDet",
@@ -137,7 +137,7 @@ def log_det(
         status[lo:hi] = np.asarray(st)[: hi - lo]
     acc = np.concatenate([np.zeros((N, 1)), np.cumsum(per, axis=1)], axis=1)
     ts = t0 + h * np.arange(n_steps + 1)
-    from .integrate import describe
+    from ._integrate import describe
 
     if single:
         return LogDet(ts, per[0], acc[0], status[0], describe(method))
@@ -151,7 +151,7 @@ def invariant_drift(invariants: dict[str, Any], xs: Any, relative: bool = False)
     """I(x_t) − I(x_0) for each named invariant, for saved states xs of shape (S, 3) or (N, S, 3).
 
     ``invariants`` maps a name to a JAX scalar callable of x (3,) (a Problem's ``invariants``);
-    ``xs`` may also be a :class:`vpforms.integrate.Solution`.  With ``relative=True`` the drift
+    ``xs`` may also be a :class:`vpforms.Solution`.  With ``relative=True`` the drift
     is divided by max(|I(x_0)|, 1e-300).  Returns name → array of the shape of xs without the
     last axis.
     """
@@ -574,7 +574,7 @@ def poincare_section(
         pts_out[lo:hi] = np.asarray(Y)[: hi - lo]
         thetas[lo:hi] = np.asarray(th)[: hi - lo]
     order = np.lexsort((ns, ps))
-    from .integrate import describe
+    from ._integrate import describe
 
     return PoincareSection(
         points=pts_out[order],
