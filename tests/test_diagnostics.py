@@ -182,6 +182,37 @@ def test_poincare_bad_arguments():
         poincare_section(RK_ROT, np.zeros(3), 0.1, 10, interpolation="cubic")
     with pytest.raises(ValueError):
         poincare_section(RK_ROT, np.zeros(3), 0.1, 10, period=-1.0)
+    for h in (0.0, float("nan"), float("inf")):
+        with pytest.raises(ValueError, match="h must be"):
+            poincare_section(RK_ROT, np.zeros(3), h, 10)
+    with pytest.raises(ValueError, match="n_steps"):
+        poincare_section(RK_ROT, np.zeros(3), 0.1, -1)
+
+
+def test_log_det_bad_arguments_are_named_errors():
+    # a NaN step size or start must not come back as a "volume error" of 0 with a status
+    for h in (0.0, float("nan"), float("inf")):
+        with pytest.raises(ValueError, match="h must be"):
+            log_det(RK_LIN, np.ones(3), h, 3)
+    with pytest.raises(ValueError, match="NaN"):
+        log_det(RK_LIN, np.array([np.nan, 0.0, 0.0]), 0.1, 3)
+    with pytest.raises(ValueError, match="shape"):
+        log_det(RK_LIN, np.zeros((2, 4)), 0.1, 3)
+    with pytest.raises(ValueError, match="n_steps"):
+        log_det(RK_LIN, np.zeros(3), 0.1, 2.5)
+
+
+def test_log_det_reports_failed_particles():
+    # x' = x² blows up: RK4 overflows after a few steps from x₁ = 1e100, not from x₁ = 0.1
+    class Blowup:
+        def __call__(self, x):
+            return jnp.array([x[0] ** 2, 0.0, 0.0])
+
+    x0 = np.array([[0.1, 0.0, 0.0], [1e100, 0.0, 0.0]])
+    ld = log_det(RK4(Blowup()), x0, 0.1, 5)
+    assert not ld.ok and ld.n_failed == 1
+    assert ld.status[0] == 0 and ld.status[1] != 0
+    assert np.all(np.isfinite(ld.accumulated))  # frozen, not NaN
 
 
 def test_abc_field_helper_is_divergence_free():

@@ -332,6 +332,29 @@ class _Bar:
             self.progress.stop()
 
 
+def _check_run(method: Any, x0: Any, h: Any, n_steps: Any) -> tuple[np.ndarray, bool, float, int]:
+    """Validate the arguments every run shares; return (points (N, 3), single, h, n_steps).
+
+    A bad argument is a named error here, never a NaN or a silently failed run later.
+    """
+    if not hasattr(method, "step_with_status"):
+        raise TypeError("method must have step_with_status(x, h) -> (X, status)")
+    x0 = np.asarray(x0, dtype=np.float64)
+    if x0.ndim not in (1, 2) or x0.shape[-1] != 3:
+        raise ValueError(f"x0 must have shape (3,) or (N, 3); got {x0.shape}")
+    if not np.all(np.isfinite(x0)):
+        raise ValueError("x0 contains NaN or infinite values")
+    if isinstance(n_steps, bool) or int(n_steps) != n_steps:
+        raise ValueError(f"n_steps must be an integer, got {n_steps!r}")
+    n_steps = int(n_steps)
+    if n_steps < 0:
+        raise ValueError(f"n_steps must be ≥ 0, got {n_steps}")
+    h = float(h)
+    if not math.isfinite(h) or h == 0.0:
+        raise ValueError(f"h must be a finite non-zero number, got {h}")
+    return x0.reshape(-1, 3), x0.ndim == 1, h, n_steps
+
+
 def integrate(
     method: Any,
     x0: Any,
@@ -367,22 +390,8 @@ def integrate(
     segment_blocks:
         Save-blocks per compiled call inside a chunk (the progress granularity); ``None`` = auto.
     """
-    if not hasattr(method, "step_with_status"):
-        raise TypeError("method must have step_with_status(x, h) -> (X, status)")
-    x0 = np.asarray(x0, dtype=np.float64)
-    single = x0.ndim == 1
-    if x0.ndim not in (1, 2) or x0.shape[-1] != 3:
-        raise ValueError(f"x0 must have shape (3,) or (N, 3); got {x0.shape}")
-    if not np.all(np.isfinite(x0)):
-        raise ValueError("x0 contains NaN or infinite values")
-    pts = x0.reshape(-1, 3)
+    pts, single, h, n_steps = _check_run(method, x0, h, n_steps)
     N = pts.shape[0]
-    n_steps = int(n_steps)
-    if n_steps < 0:
-        raise ValueError(f"n_steps must be ≥ 0, got {n_steps}")
-    h = float(h)
-    if not math.isfinite(h) or h == 0.0:
-        raise ValueError(f"h must be a finite non-zero number, got {h}")
     if save_every is None:
         # only x0 and the final state are kept: fixed blocks (32 steps, 8 per call) so that every
         # n_steps (e.g. a step-size sweep) reuses one compilation

@@ -28,7 +28,7 @@ from jax import lax
 
 from . import _config  # noqa: F401
 from ._errors import RESULTS
-from ._integrate import _Bar, _StepFn, auto_chunk_size, integrate
+from ._integrate import _Bar, _check_run, _StepFn, auto_chunk_size, integrate
 
 __all__ = [
     "LogDet",
@@ -82,8 +82,21 @@ class LogDet:
     method: str
 
     @property
+    def n_failed(self) -> int:
+        """Particles with a failed step: their ``accumulated`` stops at the failure (not a volume)."""
+        return int(np.count_nonzero(np.asarray(self.status) != RESULTS.successful))
+
+    @property
+    def ok(self) -> bool:
+        return self.n_failed == 0
+
+    @property
     def max_abs(self) -> float:
-        """max over particles and times of |log det D(Ψ_h^n)| (0 for an exactly VP method)."""
+        """max over particles and times of |log det D(Ψ_h^n)| (0 for an exactly VP method).
+
+        Failed particles contribute only their steps before the failure: check :attr:`ok` /
+        :attr:`n_failed` before reading this as the volume error of the whole run.
+        """
         return float(np.max(np.abs(self.accumulated))) if self.accumulated.size else 0.0
 
 
@@ -123,9 +136,10 @@ def log_det(
 
     The Jacobian of each step is ``jax.jacfwd`` of ``step_with_status(·, h)[0]`` at the current
     point: exact derivatives, so an exactly volume-preserving method shows rounding-level values
-    (≈1e-16 per step) and a non-VP method (RK4) its true volume error.
+    (≈1e-16 per step) and a non-VP method (RK4) its true volume error.  A particle whose step
+    fails is frozen and adds 0 from then on; its code is in ``status`` (see :attr:`LogDet.ok`).
     """
-    pts, single = _points(x0)
+    pts, single, h, n_steps = _check_run(method, x0, h, n_steps)
     N = pts.shape[0]
     C = min(N, chunk_size or auto_chunk_size(N, n_steps))
     per = np.empty((N, n_steps))
@@ -507,9 +521,8 @@ def poincare_section(
         raise ValueError(f"interpolation must be 'step' or 'linear', got {interpolation!r}")
     if period is not None and not (period > 0 and math.isfinite(period)):
         raise ValueError(f"period must be a positive number, got {period}")
-    pts, _ = _points(x0)
+    pts, _, h, n_steps = _check_run(method, x0, h, n_steps)
     N = pts.shape[0]
-    n_steps = int(n_steps)
     # segments of ≤ 1024 steps (≥ ~20 per chunk for a live bar); the crossing buffers are emptied
     # to the host after every segment, so memory does not grow with n_steps
     seg = max(1, min(n_steps, -(-n_steps // 20), 1024))
