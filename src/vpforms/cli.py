@@ -393,7 +393,8 @@ def _drift_panels(prob, method, h, steps, n_particles, seed, console, label=None
         with console.status(f"log |det J| along {n_particles} orbits × {steps} steps: {label}…"):
             ld = log_det(m, x0, h, steps)
         vol[label] = (ld.ts, np.abs(ld.accumulated))
-        stats[label] = {"max |log det|": ld.max_abs}
+        # a failed orbit's log det stops at its failure: say how many, next to the maximum
+        stats[label] = {"max |log det|": ld.max_abs, "failed orbits": ld.n_failed}
         if prob.invariants:
             sol = integrate(m, x0, h, steps, save_every=max(1, steps // 200), progress="auto")
             for name, d in invariant_drift(prob.invariants, sol.xs).items():
@@ -418,7 +419,7 @@ def _cmd_drift(args, console) -> int:
     for k in keys:
         t.add_column(k, justify="right")
     for label, row in stats.items():
-        t.add_row(label, *[f"{row[k]:.3e}" for k in keys])
+        t.add_row(label, *[str(row[k]) if isinstance(row[k], int) else f"{row[k]:.3e}" for k in keys])
     console.print(t)
     console.print(f"figure: {args.png}", soft_wrap=True)
     return 0
@@ -535,7 +536,8 @@ def _cmd_demo(args, console) -> int:
     plots.drift_figure(panels, title="Free rigid body, h = 0.1: vpforms (order 4) vs RK4 (order 4)", path=png3)
     lines = []
     for label, row in stats.items():
-        lines.append(f"{label}: " + ", ".join(f"{k} = {v:.2e}" for k, v in row.items()))
+        lines.append(f"{label}: " + ", ".join(f"{k} = {v}" if isinstance(v, int) else f"{k} = {v:.2e}"
+                                             for k, v in row.items()))
     console.print("\n".join(lines))
     console.print(f"[green]✓[/green] drift plot ({time.perf_counter() - t:.1f} s) → {png3}")
     console.print(Panel.fit(f"demo finished in {time.perf_counter() - t_all:.1f} s; figures in {out}:\n"
