@@ -206,6 +206,9 @@ def test_linear_recipe_errors():
         scheme(get("abc").field, "SE+XX")
     with pytest.raises(ValueError, match="do not apply"):
         scheme(get("abc").field, "SE+SE", theta=0.5)
+    for cls in ("SE+DL", "DL+DL"):
+        with pytest.raises(ValueError, match="theta must be a finite"):
+            scheme(get("abc").field, cls, theta=float("nan"))
     with pytest.raises(ValueError, match="variant"):
         S1(Field.linear(B), variant="other")
 

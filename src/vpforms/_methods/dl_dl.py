@@ -37,7 +37,7 @@ class DLDL(DLPredictor, GeneratingMethod):
         self.field = field
         self.case = REPRESENTATIVES["DL+DL"]
         self.order, self.symmetric = 1, False
-        self.theta, self.printed = float(theta), bool(printed)
+        self.theta, self.printed = self._theta(theta), bool(printed)
         self.newton = {**GeneratingMethod.newton, **(newton or {})}
         self._check_fast(fast)
         if printed:

@@ -13,6 +13,7 @@ X₁ = x₁ − h∂₃G²(x₁,X₂,X₃).
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import jax
@@ -97,6 +98,14 @@ class DLPredictor:
     def via_engine(self) -> bool:
         return not self.fast
 
+    @staticmethod
+    def _theta(theta: Any) -> float:
+        """θ as a float; a NaN/infinite θ is an error here, not a NaN in every step."""
+        t = float(theta)
+        if not math.isfinite(t):
+            raise ValueError(f"theta must be a finite number (0 or 0.5), got {theta!r}")
+        return t
+
     def _check_fast(self, fast: bool):
         if fast and self.printed:
             raise ValueError("fast=True evaluates the corrected stages; the printed variant has none")
@@ -124,7 +133,7 @@ class SEDL(DLPredictor, GeneratingMethod):
         self.field = field
         self.case = REPRESENTATIVES["SE+DL"]
         self.order, self.symmetric = 1, False
-        self.theta, self.printed = float(theta), bool(printed)
+        self.theta, self.printed = self._theta(theta), bool(printed)
         self.newton = {**GeneratingMethod.newton, **(newton or {})}
         self._check_fast(fast)
         if printed:
