@@ -90,6 +90,22 @@ def test_bad_arguments_give_one_line_errors(argv, capsys, tmp_path, monkeypatch)
     _one_line_error(capsys)
 
 
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["run", "--method", "XY+Z", "--steps", "2", "--particles", "2"],  # scheme's ValueError
+        ["run", "--method", "SE+SE", "--theta", "0.5", "--steps", "2", "--particles", "2"],
+        ["run", "--method", "DL+DL", "--theta", "nan", "--steps", "2", "--particles", "2"],
+    ],
+)
+def test_bad_method_options_are_usage_errors(argv, capsys, tmp_path, monkeypatch):
+    # exit 2 (bad arguments), before any integration, never a run of frozen NaN particles
+    monkeypatch.chdir(tmp_path)
+    assert main(argv) == 2
+    _one_line_error(capsys)
+    assert not (tmp_path / "vpforms-run.npz").exists()
+
+
 def test_run_writes_npz(tmp_path, capsys):
     out = tmp_path / "r.npz"
     argv = ["run", "--problem", "abc", "--param", "C=0", "--steps", "12", "--particles", "5",
@@ -135,7 +151,7 @@ def test_drift_png(tmp_path, capsys):
                  "--png", str(png)]) == 0
     _png_ok(png)
     out = capsys.readouterr().out
-    assert "RK4" in out and "max |log det|" in out
+    assert "RK4" in out and "max |log det|" in out and "failed orbits" in out
 
 
 def test_errata(capsys):

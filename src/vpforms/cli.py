@@ -80,6 +80,16 @@ def _positive_float(text: str) -> float:
     return v
 
 
+def _finite_float(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not math.isfinite(v):
+        raise argparse.ArgumentTypeError(f"{text!r} must be a finite number")
+    return v
+
+
 def _positive_int(text: str) -> int:
     try:
         v = int(text)
@@ -151,7 +161,10 @@ def _make_method(field, cls, case, order, fast, theta):
         opts["fast"] = True
     if theta is not None:
         opts["theta"] = theta
-    m = scheme(field, case if case is not None else cls, **opts)
+    try:
+        m = scheme(field, case if case is not None else cls, **opts)
+    except ValueError as exc:  # unknown class, option that does not apply, bad θ: a usage error
+        raise CLIError(str(exc)) from None
     if order == 1:
         return m
     if order not in (2, 4, 6):
@@ -568,7 +581,8 @@ def _add_method_args(p, default_order=1):
     p.add_argument("--order", type=int, default=default_order, choices=(1, 2, 4, 6),
                    help=f"composition order (1 = the bare method); default {default_order}")
     p.add_argument("--fast", action="store_true", help="closed-form SE+SE path (no Newton)")
-    p.add_argument("--theta", type=float, default=None, help="θ of the discrete Lagrangian (DL classes)")
+    p.add_argument("--theta", type=_finite_float, default=None,
+                   help="θ of the discrete Lagrangian (DL classes): 0 or 0.5")
 
 
 def build_parser() -> argparse.ArgumentParser:
