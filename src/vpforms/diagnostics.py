@@ -235,7 +235,11 @@ def step_size_errors(method: Any, x0: Any, T: float, hs: Any, reference: Any) ->
 
 @dataclass(frozen=True)
 class OrderFit:
-    """A log–log fit err ≈ c·h^order over the points ``used`` (a boolean mask over hs)."""
+    """A log–log fit err ≈ 10^log10_c · h^order over the points ``used``.
+
+    ``hs``, ``errors`` and ``used`` (a boolean mask) are sorted by increasing h (not in the
+    caller's order); ``local_slopes[i]`` is the slope between sorted points i and i + 1.
+    """
 
     order: float
     log10_c: float
@@ -300,8 +304,6 @@ def fit_order(hs: Any, errors: Any, floor: float | None = None, tol: float = 0.1
     _, sel, p, c = best
     used_sorted = np.zeros(hs.size, dtype=bool)
     used_sorted[sel] = True
-    used = np.empty_like(used_sorted)
-    used[order_idx] = used_sorted
     local_full = np.full(hs.size - 1, np.nan)
     local_full[: local.size] = local
     return OrderFit(float(p), float(c), hs_s, er_s, used_sorted, local_full)
