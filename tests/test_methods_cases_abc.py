@@ -29,7 +29,7 @@ def check_all_cases(field_name: str, T: float = 0.4, ns=(4, 8, 16, 32)):
     Da = np.asarray(field.jacobian(pts))
     rng = np.random.default_rng(7)
     h_det = rng.uniform(0.01, 0.1, len(pts))
-    h_cons = (0.02, 0.01, 0.005)
+    h_cons = (0.04, 0.02, 0.01, 0.005)  # ≥ 4 step sizes for the log–log slope
     x0 = pts  # same shape as every other call: one compilation per case
     ref = reference_flow(field, x0, T)
     report = []
