@@ -136,6 +136,25 @@ def test_poincare_crossings_of_a_rotation_land_on_the_circle():
     assert np.all(down.points[:, 0] < 0)
     both = poincare_section(RK_ROT, x0, h, n, axis=1, value=0.0, direction=0)
     assert both.points.shape[0] == sec.points.shape[0] + down.points.shape[0]
+    assert sec.n_fallback == 0 and lin.n_fallback == 0
+
+
+def test_poincare_flags_crossings_the_step_family_cannot_locate():
+    # a method whose full steps succeed but whose sub-steps Ψ_{θh}, θ < 1, all fail: every
+    # crossing falls back to the chord and must say so (not pass as an order-4 location)
+    class FullStepsOnly:
+        order = 4
+
+        def step_with_status(self, x, h):
+            X, s = RK_ROT.step_with_status(x, h)
+            return X, jnp.where(jnp.abs(h) < 0.05 * (1 - 1e-12), 2, s).astype(jnp.int32)
+
+    x0 = np.array([[1.0, 0.3, 0.2], [0.4, -0.2, -1.0]])
+    sec = poincare_section(FullStepsOnly(), x0, 0.05, 300, axis=1, value=0.0, direction=1)
+    lin = poincare_section(RK_ROT, x0, 0.05, 300, axis=1, value=0.0, direction=1, interpolation="linear")
+    assert sec.points.shape[0] > 0 and np.all(sec.status == 0)
+    assert sec.n_fallback == sec.points.shape[0] and np.all(sec.fallback)
+    np.testing.assert_allclose(sec.points, lin.points, rtol=0, atol=1e-15)
 
 
 def test_poincare_modulo_period_integrable_abc():

@@ -328,6 +328,7 @@ def _cmd_poincare(args, console) -> int:
         "crossings": int(sec.points.shape[0]),
         "dropped (buffer full)": sec.dropped,
         "interpolation": f"{sec.interpolation}: order {sec.interpolation_order}",
+        "located by the chord (step family failed)": sec.n_fallback,
         "failed orbits": int((sec.status != 0).sum()),
         "wall time (s)": round(wall, 2),
     }))

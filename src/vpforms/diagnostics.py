@@ -336,7 +336,9 @@ class PoincareSection:
     [t_n, t_{n+1}]; ``theta`` (M,) its fraction of the step; ``t`` (M,) the crossing time
     t0 + (n + θ)h; ``counts`` (N,) crossings detected per particle (including the ``dropped`` ones
     not kept: beyond ``max_crossings`` or a full segment buffer); ``interpolation`` and
-    ``interpolation_order`` say how they were located.
+    ``interpolation_order`` say how they were located; ``fallback`` (M,) marks the crossings that
+    ``interpolation="step"`` could not locate on the step family (a failed sub-step) and that are
+    the chord point instead (order 1, not on the plane): ``n_fallback`` counts them.
     """
 
     points: np.ndarray
@@ -354,6 +356,12 @@ class PoincareSection:
     interpolation_order: str
     method: str
     status: np.ndarray
+    fallback: np.ndarray
+
+    @property
+    def n_fallback(self) -> int:
+        """Crossings located by the chord because the step family failed (see ``fallback``)."""
+        return int(np.count_nonzero(self.fallback))
 
     @property
     def plane_axes(self) -> tuple[int, int]:
@@ -423,7 +431,8 @@ def _poincare_scan(step_fn, n_steps, K, axis, direction, P, x, st, count, bx, bn
 
 @partial(jax.jit, static_argnums=(0, 1, 2))
 def _refine_kernel(step_fn, axis, mode, x, lvl, h):
-    """Locate θ ∈ [0, 1] with (Ψ_{θh}(x))_axis = lvl by Illinois regula falsi; return (X, θ)."""
+    """Locate θ ∈ [0, 1] with (Ψ_{θh}(x))_axis = lvl by Illinois regula falsi; return (X, θ, fallback)
+    (fallback: the step family failed and the chord point is returned)."""
 
     def one(x, lvl):
         X1, _ = step_fn(x, h)
@@ -431,7 +440,7 @@ def _refine_kernel(step_fn, axis, mode, x, lvl, h):
         g1 = X1[axis] - lvl
         th_lin = g0 / (g0 - g1)
         if mode == "linear":  # chord of the step: O(h²) accurate
-            return x + th_lin * (X1 - x), th_lin
+            return x + th_lin * (X1 - x), th_lin, jnp.bool_(False)
 
         def g(th):
             Y, s = step_fn(x, th * h)
@@ -459,7 +468,7 @@ def _refine_kernel(step_fn, axis, mode, x, lvl, h):
         _, Y, s = g(th)
         ok = (s == RESULTS.successful) & jnp.all(jnp.isfinite(Y))
         Y = jnp.where(ok, Y, x + th_lin * (X1 - x))
-        return Y.at[axis].set(jnp.where(ok, lvl, Y[axis])), jnp.where(ok, th, th_lin)
+        return Y.at[axis].set(jnp.where(ok, lvl, Y[axis])), jnp.where(ok, th, th_lin), ~ok
 
     return jax.vmap(one)(x, lvl)
 
@@ -510,6 +519,7 @@ def poincare_section(
           solved for (Ψ_{θh}(x_n))_axis = level by Illinois regula falsi (bracketed, to 1e-15).
           The point is one step of the method of size θh, so its error is the method's local error
           O(h^{p+1}) — interpolation of order p for a method of order p — and it lies on the plane.
+          Where a sub-step Ψ_{θh} fails, the chord point is used and flagged in ``fallback``.
         * ``"linear"``: the chord x_n + θ(x_{n+1} − x_n), interpolation order 1 (error O(h²)).
 
     The detection runs inside the ``lax.scan`` of the orbit (device memory O(chunk · 256) per
@@ -580,14 +590,15 @@ def poincare_section(
 
     # locate: batched over all crossings, in fixed-size padded chunks (one compilation)
     M = xs.shape[0]
-    pts_out, thetas = np.zeros((M, 3)), np.zeros(M)
+    pts_out, thetas, fallback = np.zeros((M, 3)), np.zeros(M), np.zeros(M, dtype=bool)
     R = min(1 << max(M - 1, 1).bit_length(), 2**14)  # power-of-two buckets: few compilations
     for lo, hi in _chunks(M, R):
-        Y, th = _refine_kernel(
+        Y, th, fb = _refine_kernel(
             fn, axis, interpolation, jnp.asarray(_pad(xs[lo:hi], R)), jnp.asarray(_pad(ls[lo:hi, None], R)[:, 0]), hj
         )
         pts_out[lo:hi] = np.asarray(Y)[: hi - lo]
         thetas[lo:hi] = np.asarray(th)[: hi - lo]
+        fallback[lo:hi] = np.asarray(fb)[: hi - lo]
     order = np.lexsort((ns, ps))
     from ._integrate import describe
 
@@ -607,4 +618,5 @@ def poincare_section(
         interpolation_order=_interp_order(method, interpolation),
         method=describe(method),
         status=status,
+        fallback=fallback[order],
     )
