@@ -96,6 +96,11 @@ def test_bad_arguments_give_one_line_errors(argv, capsys, tmp_path, monkeypatch)
         ["run", "--method", "XY+Z", "--steps", "2", "--particles", "2"],  # scheme's ValueError
         ["run", "--method", "SE+SE", "--theta", "0.5", "--steps", "2", "--particles", "2"],
         ["run", "--method", "DL+DL", "--theta", "nan", "--steps", "2", "--particles", "2"],
+        ["run", "--out", "no_such_folder/x.npz", "--steps", "2", "--particles", "2"],
+        ["poincare", "--period", "-1", "--steps", "2", "--particles", "2"],
+        ["poincare", "--png", "no_such_folder/p.png", "--steps", "2", "--particles", "2"],
+        ["drift", "--png", "no_such_folder/d.png", "--steps", "2", "--particles", "2"],
+        ["order", "--png", "no_such_folder/o.png", "--levels", "4"],
     ],
 )
 def test_bad_method_options_are_usage_errors(argv, capsys, tmp_path, monkeypatch):

@@ -259,11 +259,20 @@ def _summary_table(title: str, rows: dict[str, Any]):
     return t
 
 
+def _check_out(*paths: str) -> None:
+    """Fail before the computation, not after it, when an output's folder does not exist."""
+    for path in paths:
+        folder = os.path.dirname(os.path.abspath(path))
+        if not os.path.isdir(folder):
+            raise CLIError(f"cannot write {path!r}: folder {folder!r} does not exist")
+
+
 def _cmd_run(args, console) -> int:
     import numpy as np
 
     from ._integrate import integrate
 
+    _check_out(args.out)
     prob = _problem(args)
     method = _method_from_args(args, prob.field)
     x0 = prob.initial_conditions(args.particles, seed=args.seed)
@@ -298,6 +307,8 @@ def _cmd_run(args, console) -> int:
 
 def _default_period(prob, axis: int, given: float | None) -> float | None:
     if given is not None:
+        if not (given >= 0 and math.isfinite(given)):
+            raise CLIError(f"--period must be a positive number (0 = none), got {given}")
         return None if given == 0 else given
     per = getattr(prob, "periodic", None)
     return None if not per else per[axis]
@@ -307,6 +318,7 @@ def _cmd_poincare(args, console) -> int:
     from . import plots
     from .diagnostics import poincare_section
 
+    _check_out(args.png, args.csv)
     prob = _problem(args)
     method = _method_from_args(args, prob.field)
     axis = args.axis - 1
@@ -375,6 +387,7 @@ def _order_table(fits, title):
 def _cmd_order(args, console) -> int:
     from . import plots
 
+    _check_out(args.png)
     prob = _problem(args)
     specs = [_parse_method_spec(s) for s in (args.methods or ["SE+SE", "SE+SE:2", "SE+SE:4", "rk4"])]
     if args.hs:
@@ -423,6 +436,7 @@ def _cmd_drift(args, console) -> int:
 
     from . import plots
 
+    _check_out(args.png)
     prob = _problem(args)
     method = _method_from_args(args, prob.field)
     panels, stats = _drift_panels(prob, method, args.h, args.steps, args.particles, args.seed, console)
