@@ -168,3 +168,5 @@ def test_compositions_are_symmetric_and_checked():
         compose(scheme(field, "SE+SE"), order=3)
     with pytest.raises(ValueError, match="unknown"):
         compose(scheme(field, "SE+SE"), order=4, scheme="nonsense")
+    with pytest.raises(TypeError, match="vpforms method"):
+        compose(field, order=2)  # a field, not a method

@@ -118,6 +118,8 @@ def compose(method: Method, order: int = 2, scheme: str | None = None) -> Method
     "kahan_li" (default), "yoshida" or "triple_jump" — each a symmetric composition of the order-2
     method (or of ``method`` itself if it is already symmetric of order ≥ 2).
     """
+    if not isinstance(method, Method):
+        raise TypeError(f"compose needs a vpforms method (vpforms.scheme(...)), got {type(method).__name__}")
     if order not in (2, 4, 6):
         raise ValueError(f"order must be 2, 4 or 6, not {order!r}")
     base = method if (method.symmetric and method.order >= 2) else SymmetricPair(method)
