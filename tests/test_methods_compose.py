@@ -21,7 +21,7 @@ from vpforms import Case, compose, scheme
 from vpforms._methods import COMPOSITIONS, Composition, SymmetricPair
 from vpforms.problems import get
 
-from .test_methods_helpers import fit_order, reference_flow
+from .test_methods_helpers import fit_order, reference_flow, step_det
 
 
 # -- order conditions in the free algebra ---------------------------------------------------------
@@ -164,6 +164,10 @@ def test_compositions_are_symmetric_and_checked():
         m = compose(scheme(field, "SE+SE"), order=order)
         back = m.step(m.step(x, 0.1), -0.1)  # S_{−h}∘S_h = id for a symmetric method
         assert float(jnp.max(jnp.abs(back - x))) <= 1e-13
+        # a composition of volume-preserving steps is volume preserving: det by jax.jacfwd
+        _, det, status = step_det(m)(x, 0.1)
+        assert np.all(np.asarray(status) == 0)
+        assert float(jnp.max(jnp.abs(det - 1))) <= 1e-12, (order, det)
     with pytest.raises(ValueError, match="order"):
         compose(scheme(field, "SE+SE"), order=3)
     with pytest.raises(ValueError, match="unknown"):
