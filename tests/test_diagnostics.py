@@ -263,3 +263,21 @@ def test_poincare_long_runs_flush_buffers_and_cap():
     assert capped.dropped == sec.counts.sum() - 10
     np.testing.assert_allclose(capped.t, np.concatenate([sec.t[sec.particle == p][:5] for p in (0, 1)]),
                                rtol=0, atol=1e-12)
+
+
+def test_poincare_freezes_a_nonfinite_step_reported_as_success():
+    # a user method returning NaN with status 0 once x₃ > 1: the orbit stops with the nonfinite
+    # code; its crossings before that are kept, none after
+    class Sloppy:
+        def step_with_status(self, x, h):
+            X = RK_ROT.step(x, h) + jnp.array([0.0, 0.0, h])
+            return jnp.where(x[2] > 1.0, jnp.nan, X), jnp.int32(0)
+
+    x0 = np.array([[1.0, 0.0, 0.0], [1.0, 0.0, -100.0]])
+    sec = poincare_section(Sloppy(), x0, 0.05, 400, axis=1, value=0.0, direction=1)
+    assert np.all(np.isfinite(sec.points))
+    from vpforms import RESULTS
+
+    assert sec.status[0] == RESULTS.nonfinite and sec.status[1] == 0
+    assert np.all(sec.t[sec.particle == 0] <= 1.0 + 0.05 + 1e-12)  # x₃ = t: none after the failure
+    assert sec.counts[1] == 3  # t = 2π k ≤ 20, k = 1, 2, 3: the healthy orbit is unaffected

@@ -193,3 +193,20 @@ def test_bad_arguments(kwargs, match):
         integrate(SE, args.pop("x0"), args.pop("h"), args.pop("n_steps"), progress=False, **args)
     with pytest.raises(TypeError):
         integrate(object(), np.zeros(3), 0.1, 3)
+
+
+def test_nonfinite_step_reported_as_success_still_freezes_the_particle():
+    # a user method that returns NaN with status 0 (x₁ > 1): the particle must freeze with the
+    # nonfinite code, not carry NaN through the run
+    class Sloppy:
+        def step_with_status(self, x, h):
+            X = x + h * jnp.array([1.0, 0.0, 0.0])
+            return jnp.where(x[0] > 1.0, jnp.nan, X), jnp.int32(0)
+
+    x0 = np.array([[0.0, 0.0, 0.0], [-10.0, 0.0, 0.0]])
+    sol = integrate(Sloppy(), x0, 0.25, 12, save_every=1, progress=False)
+    assert np.all(np.isfinite(sol.xs))
+    assert sol.status[0] == RESULTS.nonfinite and sol.status[1] == 0
+    # x₁ = 0.25 n: the step from x₁ = 1.25 (n = 5) is the first to give NaN
+    assert sol.failed_step[0] == 5
+    np.testing.assert_allclose(sol.xs[0, 5:, 0], 1.25)

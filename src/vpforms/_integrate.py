@@ -209,6 +209,8 @@ def _advance(step_with_status, x, status, failed, n, h, n_stop):
         x, status, failed = args
         X, st = step_with_status(x, h)
         st = jnp.asarray(st, dtype=jnp.int32)
+        # a non-finite result reported as a success (a user method) is a failure too: never NaN
+        st = jnp.where((st == RESULTS.successful) & ~jnp.all(jnp.isfinite(X)), RESULTS.nonfinite, st)
         alive = status == RESULTS.successful
         good = alive & (st == RESULTS.successful)
         x = jnp.where(good, X, x)  # a failed step leaves the particle where it was: frozen

@@ -405,6 +405,7 @@ def _poincare_scan(step_fn, n_steps, K, axis, direction, P, x, st, count, bx, bn
         def real(carry, n):
             x, st, count, bx, bn, bl = carry
             X, s = step_fn(x, h)
+            s = jnp.where((s == RESULTS.successful) & ~jnp.all(jnp.isfinite(X)), RESULTS.nonfinite, s)
             alive = st == RESULTS.successful
             good = alive & (s == RESULTS.successful)
             st = jnp.where(alive & ~good, s, st)
