@@ -96,6 +96,11 @@ def test_fit_order_ignores_plateau_and_preasymptotic_points():
     np.testing.assert_allclose(fit.predict(hs[3]), 2.0 * hs[3] ** p, rtol=1e-6)
     with pytest.raises(ValueError):
         fit_order([0.1, 0.05], [1e-17, 1e-17])
+    for hs_bad in ([0.1, 0.0], [0.1, -0.05], [0.1, np.nan]):
+        with pytest.raises(ValueError, match="hs must be"):
+            fit_order(hs_bad, [1e-3, 1e-4])
+    with pytest.raises(ValueError, match="same length"):
+        fit_order([0.1, 0.05, 0.025], [1e-3, 1e-4])
 
 
 def test_observed_order_rk4_and_first_order_vp_method():
@@ -104,6 +109,9 @@ def test_observed_order_rk4_and_first_order_vp_method():
     ref = reference_solution(LIN, x0, T)
     np.testing.assert_allclose(ref, x0 @ expm(T * M3).T, rtol=0, atol=1e-14)  # exact branch
     fit = observed_order(RK_LIN, x0, T, [0.2, 0.1, 0.05, 0.025])
+    for hs_bad in ([0.2, 0.0], [0.2, np.inf]):
+        with pytest.raises(ValueError, match="hs must be"):
+            observed_order(RK_LIN, x0, T, hs_bad, reference=ref)
     assert abs(fit.order - 4) < 0.15
     fit1 = observed_order(SE, np.random.default_rng(3).uniform(0, 6, (2, 3)), T, [0.1, 0.05, 0.025, 0.0125])
     assert abs(fit1.order - 1) < 0.1  # reference: DOP853 from SE.field (the ABC flow)

@@ -220,8 +220,11 @@ def step_size_errors(method: Any, x0: Any, T: float, hs: Any, reference: Any) ->
     particle makes that h's error ``inf``.
     """
     ref = np.asarray(reference, dtype=np.float64)
+    if not (math.isfinite(T) and T > 0):
+        raise ValueError(f"T must be a positive number, got {T}")
+    hs = _step_sizes(hs)
     errs = []
-    for h in np.asarray(hs, dtype=np.float64):
+    for h in hs:
         n = T / h
         if abs(n - round(n)) > 1e-9 * max(1.0, n):
             raise ValueError(f"T/h must be an integer; T={T}, h={h}")
@@ -231,6 +234,14 @@ def step_size_errors(method: Any, x0: Any, T: float, hs: Any, reference: Any) ->
             continue
         errs.append(float(np.max(np.abs(sol.x_final - ref))))
     return np.asarray(errs)
+
+
+def _step_sizes(hs: Any) -> np.ndarray:
+    """hs as a 1-D float array of positive finite step sizes (a ValueError otherwise)."""
+    hs = np.asarray(hs, dtype=np.float64)
+    if hs.ndim != 1 or hs.size == 0 or not np.all(np.isfinite(hs) & (hs > 0)):
+        raise ValueError(f"hs must be a non-empty list of positive finite step sizes, got {hs.tolist()}")
+    return hs
 
 
 @dataclass(frozen=True)
@@ -260,8 +271,10 @@ def fit_order(hs: Any, errors: Any, floor: float | None = None, tol: float = 0.1
     the longest run of consecutive points that a straight line fits within ``tol`` decades, preferring
     the run at the smallest h on ties (the asymptotic regime).  At least two points are needed.
     """
-    hs = np.asarray(hs, dtype=np.float64)
+    hs = _step_sizes(hs)
     errors = np.asarray(errors, dtype=np.float64)
+    if errors.shape != hs.shape:
+        raise ValueError(f"hs and errors must have the same length; got {hs.shape} and {errors.shape}")
     order_idx = np.argsort(hs)
     hs_s, er_s = hs[order_idx], errors[order_idx]
     finite = np.isfinite(er_s) & (er_s > 0)
