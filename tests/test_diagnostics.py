@@ -217,6 +217,10 @@ def test_poincare_bad_arguments():
             poincare_section(RK_ROT, np.zeros(3), h, 10)
     with pytest.raises(ValueError, match="n_steps"):
         poincare_section(RK_ROT, np.zeros(3), 0.1, -1)
+    with pytest.raises(ValueError, match="value"):
+        poincare_section(RK_ROT, np.zeros(3), 0.1, 10, value=float("nan"))
+    with pytest.raises(ValueError, match="t0"):
+        poincare_section(RK_ROT, np.zeros(3), 0.1, 10, t0=float("inf"))
 
 
 def test_log_det_bad_arguments_are_named_errors():

@@ -184,6 +184,9 @@ def test_rk4_baseline_and_save(tmp_path):
         (dict(n_steps=-1), "n_steps"),
         (dict(save_every=0), "save_every"),
         (dict(chunk_size=0), "chunk_size"),
+        (dict(t0=float("nan")), "t0"),
+        (dict(n_steps=2.5), "n_steps"),
+        (dict(h=float("inf")), "h must"),
     ],
 )
 def test_bad_arguments(kwargs, match):

@@ -334,7 +334,7 @@ class _Bar:
             self.progress.stop()
 
 
-def _check_run(method: Any, x0: Any, h: Any, n_steps: Any) -> tuple[np.ndarray, bool, float, int]:
+def _check_run(method: Any, x0: Any, h: Any, n_steps: Any, t0: Any = 0.0) -> tuple[np.ndarray, bool, float, int]:
     """Validate the arguments every run shares; return (points (N, 3), single, h, n_steps).
 
     A bad argument is a named error here, never a NaN or a silently failed run later.
@@ -354,6 +354,8 @@ def _check_run(method: Any, x0: Any, h: Any, n_steps: Any) -> tuple[np.ndarray, 
     h = float(h)
     if not math.isfinite(h) or h == 0.0:
         raise ValueError(f"h must be a finite non-zero number, got {h}")
+    if not math.isfinite(float(t0)):
+        raise ValueError(f"t0 must be a finite number, got {t0}")
     return x0.reshape(-1, 3), x0.ndim == 1, h, n_steps
 
 
@@ -392,7 +394,7 @@ def integrate(
     segment_blocks:
         Save-blocks per compiled call inside a chunk (the progress granularity); ``None`` = auto.
     """
-    pts, single, h, n_steps = _check_run(method, x0, h, n_steps)
+    pts, single, h, n_steps = _check_run(method, x0, h, n_steps, t0)
     N = pts.shape[0]
     if save_every is None:
         # only x0 and the final state are kept: fixed blocks (32 steps, 8 per call) so that every

@@ -139,7 +139,7 @@ def log_det(
     (≈1e-16 per step) and a non-VP method (RK4) its true volume error.  A particle whose step
     fails is frozen and adds 0 from then on; its code is in ``status`` (see :attr:`LogDet.ok`).
     """
-    pts, single, h, n_steps = _check_run(method, x0, h, n_steps)
+    pts, single, h, n_steps = _check_run(method, x0, h, n_steps, t0)
     N = pts.shape[0]
     C = min(N, chunk_size or auto_chunk_size(N, n_steps))
     per = np.empty((N, n_steps))
@@ -547,7 +547,9 @@ def poincare_section(
         raise ValueError(f"interpolation must be 'step' or 'linear', got {interpolation!r}")
     if period is not None and not (period > 0 and math.isfinite(period)):
         raise ValueError(f"period must be a positive number, got {period}")
-    pts, _, h, n_steps = _check_run(method, x0, h, n_steps)
+    pts, _, h, n_steps = _check_run(method, x0, h, n_steps, t0)
+    if not math.isfinite(float(value)):
+        raise ValueError(f"value must be a finite number, got {value}")
     N = pts.shape[0]
     # segments of ≤ 1024 steps (≥ ~20 per chunk for a live bar); the crossing buffers are emptied
     # to the host after every segment, so memory does not grow with n_steps
