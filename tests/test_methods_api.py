@@ -44,6 +44,10 @@ def test_shapes_jit_vmap_status_iterations(abc):
     assert int(status[1]) == RESULTS.nonfinite and int(status[0]) == 0
     with pytest.raises(NonFiniteError):
         m(bad, 0.1)
+    with pytest.raises(ValueError, match="h must be finite"):
+        m(x, float("nan"))
+    with pytest.raises(TypeError, match="vpforms.Field"):
+        vpforms.scheme(lambda x: x, "SE+SE")  # a plain callable has no potentials
 
 
 def test_traits_are_data_and_docstrings_cite_the_paper(abc):

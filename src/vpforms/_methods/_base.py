@@ -131,6 +131,8 @@ class Method(ABC):
         X, status = self.step_with_status(x, h)
         if isinstance(status, jax.core.Tracer):
             raise VPFormsError("Method.__call__ checks the status; under jit use step_with_status")
+        if not bool(jnp.all(jnp.isfinite(jnp.asarray(h)))):  # else a misleading ConvergenceError
+            raise ValueError(f"h must be finite, got {h}")
         raise_for_status(status, what=f"{self.name}{self.case}")
         return X
 

@@ -94,6 +94,9 @@ def scheme(field: Any, case: Case | str | tuple = "SE+SE", **options) -> Method:
     recipe (:func:`representative_method`, whose options apply) relabelled (prop:trivperm) and,
     for the SE+DL 3-cycle τ₀⁻¹, adjoined (prop:switchperm).
     """
+    if not (callable(field) and hasattr(type(field), "se_potentials") and hasattr(type(field), "dl_potentials")):
+        raise TypeError(f"scheme needs a vpforms.Field (e.g. vpforms.problems.get('abc').field), "
+                        f"got {type(field).__name__}")
     if isinstance(case, str):
         c = REPRESENTATIVES[class_name(case)]
     elif isinstance(case, Case):
