@@ -1,7 +1,9 @@
 """Diagnostics along trajectories: volume (log |det J|), invariants, observed order, Poincaré sections.
 
-Every function takes a *method* — anything with ``step_with_status(x, h) -> (X, status)`` for x of
-shape (3,) — and works in float64 under ``jit``/``vmap``.
+The trajectory diagnostics (:func:`log_det`, :func:`step_size_errors`, :func:`observed_order`,
+:func:`poincare_section`) take a *method* — anything with ``step_with_status(x, h) -> (X, status)``
+for x of shape (3,) — and run it in float64 under ``jit``/``vmap``; a particle whose step fails is
+frozen and its code reported, never carried as NaN.
 
 * :func:`log_det` — per-step and accumulated log |det DΨ_h| along trajectories, the Jacobian by
   forward-mode AD through the step (exact IFT derivatives through the Newton solves), never by
