@@ -70,34 +70,25 @@ def _parse_params(items: list[str] | None) -> dict[str, Any]:
     return out
 
 
-def _positive_float(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not (v > 0 and math.isfinite(v)):
-        raise argparse.ArgumentTypeError(f"{text!r} must be a positive number")
-    return v
+def _checked(convert, ok, must_be: str):
+    """An argparse ``type``: convert the text, then require ``ok(value)`` (one-line errors)."""
+    noun = "an integer" if convert is int else "a number"
+
+    def parse(text: str):
+        try:
+            v = convert(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not {noun}") from None
+        if not ok(v):
+            raise argparse.ArgumentTypeError(f"{text!r} must be {must_be}")
+        return v
+
+    return parse
 
 
-def _finite_float(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not math.isfinite(v):
-        raise argparse.ArgumentTypeError(f"{text!r} must be a finite number")
-    return v
-
-
-def _positive_int(text: str) -> int:
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"{text!r} must be a positive integer")
-    return v
+_positive_float = _checked(float, lambda v: v > 0 and math.isfinite(v), "a positive number")
+_finite_float = _checked(float, math.isfinite, "a finite number")
+_positive_int = _checked(int, lambda v: v >= 1, "a positive integer")
 
 
 def _float_list(text: str) -> list[float]:
