@@ -1,0 +1,224 @@
+"""Shared pieces of the ``vpforms`` command line: the one-line error type, argument parsers,
+problem and method construction (cached), and the common argument groups."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+from typing import Any
+
+
+class CLIError(Exception):
+    """A bad argument or an unavailable feature: reported as one line, exit code 2."""
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str):  # one line instead of usage + message
+        raise CLIError(f"{message} (see '{self.prog} --help')")
+
+
+# --------------------------------------------------------------------------------------------
+# Parsing helpers
+# --------------------------------------------------------------------------------------------
+def _parse_perm(text: str):
+    from .._perm import Perm
+
+    digits = [c for c in text if c.isdigit()]
+    if len(digits) != 3 or any(not c.isdigit() and c not in "(), " for c in text):
+        raise CLIError(f"{text!r} is not a permutation of (1, 2, 3); write e.g. 321, 3,2,1 or (3,2,1)")
+    try:
+        return Perm(tuple(int(c) for c in digits))
+    except (ValueError, TypeError) as exc:
+        raise CLIError(f"{text!r} is not a permutation of (1, 2, 3): {exc}") from None
+
+
+def _parse_value(text: str):
+    """An int or float literal, else a SymPy expression such as sqrt(2/3)."""
+    for conv in (int, float):
+        try:
+            return conv(text)
+        except ValueError:
+            pass
+    import sympy as sp
+
+    try:
+        return sp.sympify(text)
+    except (sp.SympifyError, SyntaxError, TypeError) as exc:
+        raise CLIError(f"cannot read parameter value {text!r}: {exc}") from None
+
+
+def _parse_params(items: list[str] | None) -> dict[str, Any]:
+    out = {}
+    for item in items or []:
+        for part in item.split(","):
+            if not part.strip():
+                continue
+            if "=" not in part:
+                raise CLIError(f"parameter {part!r} must be NAME=VALUE, e.g. --param C=0")
+            k, v = part.split("=", 1)
+            out[k.strip()] = _parse_value(v.strip())
+    return out
+
+
+def _checked(convert, ok, must_be: str):
+    """An argparse ``type``: convert the text, then require ``ok(value)`` (one-line errors)."""
+    noun = "an integer" if convert is int else "a number"
+
+    def parse(text: str):
+        try:
+            v = convert(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not {noun}") from None
+        if not ok(v):
+            raise argparse.ArgumentTypeError(f"{text!r} must be {must_be}")
+        return v
+
+    return parse
+
+
+_positive_float = _checked(float, lambda v: v > 0 and math.isfinite(v), "a positive number")
+_finite_float = _checked(float, math.isfinite, "a finite number")
+_positive_int = _checked(int, lambda v: v >= 1, "a positive integer")
+
+
+def _float_list(text: str) -> list[float]:
+    try:
+        vals = [float(t) for t in text.split(",") if t.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a comma-separated list of numbers") from None
+    if not vals or any(not (v > 0 and math.isfinite(v)) for v in vals):
+        raise argparse.ArgumentTypeError(f"{text!r} must list positive numbers")
+    return vals
+
+
+# --------------------------------------------------------------------------------------------
+# Problems and methods (the APIs of issues #4 and #5)
+# --------------------------------------------------------------------------------------------
+def _problem(args):
+    try:
+        from .. import problems
+    except ImportError as exc:  # pragma: no cover - only while issue #4 is missing
+        raise CLIError(f"the problem library (vpforms.problems) is not available: {exc}") from None
+    params = _parse_params(getattr(args, "param", None))
+    try:
+        return problems.get(args.problem, **params)
+    except KeyError as exc:
+        raise CLIError(str(exc.args[0] if exc.args else exc)) from None
+    except TypeError as exc:
+        raise CLIError(f"bad parameters for problem {args.problem!r}: {exc}") from None
+
+
+_METHODS: dict = {}
+
+
+def _method(field, cls: str = "SE+SE", case=None, order: int = 1, fast: bool = False, theta=None):
+    """A vpforms method (class representative or explicit case, composed to ``order``) or RK4.
+
+    Methods are cached per (field, options) so that repeated in-process calls (tests, the demo)
+    reuse their compiled kernels.
+    """
+    key = (id(field), str(cls).strip().upper(), case, order, fast, theta)
+    hit = _METHODS.get(key)
+    if hit is not None and hit[0] is field:
+        return hit[1]
+    m = _make_method(field, cls, case, order, fast, theta)
+    _METHODS[key] = (field, m)
+    return m
+
+
+def _make_method(field, cls, case, order, fast, theta):
+    from .._integrate import RK4
+
+    if str(cls).strip().lower() == "rk4":
+        if order != 1 or case is not None:
+            raise CLIError("rk4 is the explicit baseline: --case and --order do not apply")
+        return RK4(field)
+    try:
+        from .._methods import compose, scheme
+    except ImportError as exc:  # pragma: no cover - only while issue #5 is missing
+        raise CLIError(f"the methods (vpforms.scheme) are not available yet: {exc}") from None
+    opts = {}
+    if fast:
+        opts["fast"] = True
+    if theta is not None:
+        opts["theta"] = theta
+    try:
+        m = scheme(field, case if case is not None else cls, **opts)
+    except ValueError as exc:  # unknown class, option that does not apply, bad θ: a usage error
+        raise CLIError(str(exc)) from None
+    if order == 1:
+        return m
+    if order not in (2, 4, 6):
+        raise CLIError(f"--order must be 1, 2, 4 or 6, not {order}")
+    return compose(m, order=order)
+
+
+def _method_from_args(args, field):
+    case = None
+    if getattr(args, "case", None):
+        from .._case import Case
+
+        case = Case(_parse_perm(args.case[0]), _parse_perm(args.case[1]))
+    return _method(field, args.method, case, args.order, args.fast, args.theta)
+
+
+def _parse_method_spec(spec: str) -> tuple[str, int]:
+    """'SE+SE' → (SE+SE, 1); 'SE+SE:4' → (SE+SE, 4); 'rk4' → (rk4, 1)."""
+    name, _, order = spec.partition(":")
+    try:
+        return name.strip(), int(order) if order else 1
+    except ValueError:
+        raise CLIError(f"method spec {spec!r} must be CLASS or CLASS:ORDER, e.g. SE+SE:4 or rk4") from None
+
+
+def _spec_label(name: str, order: int) -> str:
+    if name.lower() == "rk4":
+        return "RK4"
+    return name.upper() if order == 1 else f"{name.upper()} ∘ order {order}"
+
+
+
+def _summary_table(title: str, rows: dict[str, Any]):
+    from rich.table import Table
+
+    t = Table(title=title, show_header=False)
+    t.add_column("", style="bold")
+    t.add_column("", overflow="fold")
+    for k, v in rows.items():
+        if isinstance(v, float):
+            v = f"{v:.6g}"
+        t.add_row(str(k), str(v))
+    return t
+
+
+def _check_out(*paths: str) -> None:
+    """Fail before the computation, not after it, when an output's folder does not exist."""
+    for path in paths:
+        folder = os.path.dirname(os.path.abspath(path))
+        if not os.path.isdir(folder):
+            raise CLIError(f"cannot write {path!r}: folder {folder!r} does not exist")
+
+
+def _add_problem_args(p, default_problem="abc"):
+    p.add_argument("--problem", default=default_problem,
+                   help=f"test problem (vpforms.problems.names(): abc, abc_gi, linear, lotka_volterra, "
+                        f"stokes_sphere, tokamak, rigid_body); default {default_problem}")
+    p.add_argument("--param", action="append", metavar="NAME=VALUE",
+                   help="problem parameter, repeatable or comma-separated, e.g. --param C=0 or "
+                        "--param B=sqrt(2/3)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the initial conditions (default 0)")
+
+
+def _add_method_args(p, default_order=1):
+    p.add_argument("--method", default="SE+SE", metavar="CLASS",
+                   help="class representative: SE+SE, SE+DL (= DL+SE), DL+DL, S1, S2, or rk4 "
+                        "(the explicit baseline); default SE+SE")
+    p.add_argument("--case", nargs=2, metavar=("SIGMA", "SIGMA2"),
+                   help="an explicit case (σ, Σ) instead of the class representative, e.g. --case 2,3,1 1,3,2")
+    p.add_argument("--order", type=int, default=default_order, choices=(1, 2, 4, 6),
+                   help=f"composition order (1 = the bare method); default {default_order}")
+    p.add_argument("--fast", action="store_true", help="closed-form SE+SE path (no Newton)")
+    p.add_argument("--theta", type=_finite_float, default=None,
+                   help="θ of the discrete Lagrangian (DL classes): 0 or 0.5")
+
