@@ -176,4 +176,6 @@ def test_demo_quick(tmp_path, capsys):
     for name in ("poincare_abc.png", "order_abc.png", "drift_rigid_body.png"):
         _png_ok(out / name)
     assert (out / "poincare_abc.csv").exists()
-    assert str(out) in capsys.readouterr().out.replace("\n", "")
+    printed = capsys.readouterr().out
+    assert str(out) in printed.replace("\n", "")
+    assert "crossings CSV" in printed and "poincare_abc.csv" in printed  # the closing box lists it

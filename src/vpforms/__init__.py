@@ -9,6 +9,7 @@ Importing vpforms enables JAX float64 (see :mod:`vpforms._config`, the one place
 from . import _config  # noqa: F401  (enables jax_enable_x64 before any array is made)
 from ._case import CLASSES, Case, cases, class_of_tau
 from ._errors import (
+    RECOVERY,
     RESULTS,
     ConvergenceError,
     NonFiniteError,
@@ -35,6 +36,8 @@ from ._methods import (
 )
 from ._integrate import RK4, Solution, integrate  # noqa: E402
 from . import diagnostics  # noqa: E402
+from ._spec import SpecError, field_from_spec, method_from_spec  # noqa: E402
+from . import native  # noqa: E402  (native.available(); backends: issue 9)
 
 __version__ = "0.1.0"
 
@@ -43,6 +46,7 @@ __all__ = [
     "Case",
     "cases",
     "class_of_tau",
+    "RECOVERY",
     "RESULTS",
     "ConvergenceError",
     "NonFiniteError",
@@ -70,4 +74,7 @@ __all__ = [
     "Solution",
     "RK4",
     "diagnostics",
+    "SpecError",
+    "method_from_spec",
+    "field_from_spec",
 ]

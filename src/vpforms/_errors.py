@@ -16,6 +16,7 @@ __all__ = [
     "NonFiniteError",
     "NotDivergenceFreeError",
     "RESULTS",
+    "RECOVERY",
     "raise_for_status",
 ]
 
@@ -86,3 +87,23 @@ def raise_for_status(status, what: str = "generating map", max_indices: int = 5)
     if unknown.size:
         raise VPFormsError(f"{what}: unknown status codes {np.unique(flat[unknown])}")
     raise RESULTS.errors[first_code](f"{what} failed at " + "; ".join(parts))
+
+
+class RECOVERY:
+    """Per-point codes saying how a failed step was recovered (``Method.step_with_recovery``).
+
+    0: the bare step succeeded; otherwise the first alternative that succeeded, in the recovery
+    order of :func:`vpforms.scheme` (``recover=True``).
+    """
+
+    none = 0
+    other_case = 1
+    other_class = 2
+    substeps = 3
+
+    messages = {
+        none: "bare step",
+        other_case: "another case of the same class",
+        other_class: "another class",
+        substeps: "2^k VP sub-steps of the same method",
+    }

@@ -35,6 +35,7 @@ import numpy as np
 from jax import lax
 
 from . import _config  # noqa: F401  (float64)
+from ._recovery import bare_method, count_how, recover_points
 from ._errors import RESULTS, raise_for_status
 
 __all__ = ["integrate", "Solution", "RK4", "describe", "auto_chunk_size"]
@@ -100,6 +101,12 @@ class RK4:
         bad = ~jnp.all(jnp.isfinite(X), axis=-1)
         return X, jnp.where(bad, RESULTS.nonfinite, RESULTS.successful).astype(jnp.int32)
 
+    def spec(self) -> dict:
+        """The JSON-able spec that rebuilds this RK4 (:func:`vpforms.method_from_spec`)."""
+        from ._spec import method_spec
+
+        return method_spec(self)
+
     def __repr__(self) -> str:
         return f"RK4({getattr(self.field, 'name', self.field)!s})"
 
@@ -144,6 +151,8 @@ class Solution:
     save_every: int | None
     t0: float = 0.0
     stats: dict = field(default_factory=dict)
+    #: per-particle number of steps that failed bare and were recovered (issue #12)
+    recovered: np.ndarray | None = None
 
     @property
     def x_final(self) -> np.ndarray:
@@ -179,6 +188,9 @@ class Solution:
             "saved states": int(self.ts.size),
             "failed particles": int(np.count_nonzero(st != RESULTS.successful)),
             **({"failures": fails} if fails else {}),
+            **({"first failed": [(int(i), int(np.atleast_1d(self.failed_step)[i]))
+                                 for i in np.flatnonzero(st != RESULTS.successful)[:5]]} if fails else {}),
+            **({"recovered steps": int(np.sum(self.recovered))} if self.recovered is not None else {}),
             **self.stats,
         }
 
@@ -198,53 +210,127 @@ class Solution:
             t0=np.array(self.t0),
         )
 
+    def to_xarray(self, method: Any = None):
+        """This solution as an ``xarray.Dataset`` (:mod:`vpforms.io`; ``method`` adds its spec)."""
+        from .io import solution_to_xarray
+
+        return solution_to_xarray(self, method)
+
+    def to_netcdf(self, path: str, method: Any = None) -> None:
+        """Write :meth:`to_xarray` to a netCDF file (:mod:`vpforms.io`)."""
+        from .io import solution_to_netcdf
+
+        solution_to_netcdf(self, path, method)
+
 
 # --------------------------------------------------------------------------------------------
 # The kernel
 # --------------------------------------------------------------------------------------------
-def _advance(step_with_status, x, status, failed, n, h, n_stop):
-    """One step for one particle with freezing; a no-op once n ≥ n_stop (a padded step)."""
-
-    def do(args):
-        x, status, failed = args
-        X, st = step_with_status(x, h)
-        st = jnp.asarray(st, dtype=jnp.int32)
-        # a non-finite result reported as a success (a user method) is a failure too: never NaN
-        st = jnp.where((st == RESULTS.successful) & ~jnp.all(jnp.isfinite(X)), RESULTS.nonfinite, st)
-        alive = status == RESULTS.successful
-        good = alive & (st == RESULTS.successful)
-        x = jnp.where(good, X, x)  # a failed step leaves the particle where it was: frozen
-        newly = alive & (st != RESULTS.successful)
-        return x, jnp.where(newly, st, status), jnp.where(newly, n, failed).astype(failed.dtype)
-
-    return lax.cond(n < n_stop, do, lambda a: a, (x, status, failed))
-
-
 @partial(jax.jit, static_argnums=(0, 1, 2))
-def _segment_kernel(step_with_status, save_every, n_blocks, x, status, failed, n0, h, n_stop):
+def _segment_kernel(step_with_status, save_every, n_blocks, x, status, failed, n0, h, n_stop,
+                    recovered=None, start=None):
     """Run n_blocks blocks of save_every steps from step n0 (steps ≥ n_stop are skipped).
 
-    Shapes: x (C, 3), status/failed (C,).  Returns the new carry and the states after each block,
-    (C, n_blocks, 3).  One particle's trajectory is a scan over steps, vmapped over particles.
+    Shapes: x (C, 3), status/failed/recovered/start (C,); a particle takes steps n ≥ start only.  Returns the new carry and the states after
+    each block, (C, n_blocks, 3).  The scan over steps is outside, the step is the method's BATCHED
+    step on the whole chunk (so a recovering method decides recovery once per chunk, issue #12).
     """
+    if recovered is None:
+        recovered = jnp.zeros_like(status)
+    if start is None:  # per-particle first step (a particle resumed after a recovered step)
+        start = jnp.zeros_like(status)
+    with_rec = hasattr(step_with_status, "with_recovery")
 
-    def one_particle(x, status, failed):
-        def block(carry, b):
-            def step(c, j):
-                x, st, fl = c
-                n = n0 + b * save_every + j
-                # steps past n_stop (the overshoot of the last segment) are skipped by a cond on
-                # the unbatched step index: no work is done for them
-                return _advance(step_with_status, x, st, fl, n, h, n_stop), None
+    def advance(c, n):
+        def do(c):
+            x, status, failed, rec = c
+            if with_rec:
+                X, st, r = step_with_status.with_recovery(x, h)
+            else:
+                # a user method's contract is one point (3,): vmap it as before
+                X, st = jax.vmap(step_with_status, in_axes=(0, None))(x, h)
+                r = jnp.zeros_like(status)
+            st = jnp.asarray(st, dtype=jnp.int32)
+            # a non-finite result reported as a success (a user method) is a failure too: never NaN
+            st = jnp.where((st == RESULTS.successful) & ~jnp.all(jnp.isfinite(X), axis=-1),
+                           RESULTS.nonfinite, st)
+            alive = (status == RESULTS.successful) & (n >= start)
+            good = alive & (st == RESULTS.successful)
+            x = jnp.where(good[:, None], X, x)  # a failed step leaves the particle where it was
+            newly = alive & (st != RESULTS.successful)
+            rec = rec + (good & (jnp.asarray(r) > 0)).astype(rec.dtype)
+            return (x, jnp.where(newly, st, status),
+                    jnp.where(newly, n, failed).astype(failed.dtype), rec)
 
-            carry, _ = lax.scan(step, carry, jnp.arange(save_every))
-            return carry, carry[0]
+        return lax.cond(n < n_stop, do, lambda a: a, c)
 
-        carry, saved = lax.scan(block, (x, status, failed), jnp.arange(n_blocks))
-        return carry, saved
+    def block(carry, b):
+        def step(c, j):
+            return advance(c, n0 + b * save_every + j), None
 
-    (x, status, failed), saved = jax.vmap(one_particle)(x, status, failed)
-    return x, status, failed, saved
+        carry, _ = lax.scan(step, carry, jnp.arange(save_every))
+        return carry, carry[0]
+
+    (x, status, failed, recovered), saved = lax.scan(
+        block, (x, status, failed, recovered), jnp.arange(n_blocks))
+    return x, status, failed, saved.transpose(1, 0, 2), recovered
+
+
+def _recover_segment(method, block_kernel, C, n_real, k, L, n0, h, stop, st_before, x, st, fl, saved,
+                     rc, how):
+    """Recover the bare steps that failed in this segment and resume those particles (issue #12).
+
+    A particle whose bare step n failed is frozen at its state before step n: take step n with
+    the recovering method there (:func:`vpforms._recovery.recover_points`), then run the rest of
+    the segment for the re-simulated particles alone, one save-block at a time (so a particle
+    that fails again costs one block, not the segment), overwriting their saved states from the
+    block holding step n on.  Particles no alternative can step stay frozen with the bare status.
+    """
+    st_np = np.asarray(st)
+    fresh = np.flatnonzero((np.asarray(st_before) == RESULTS.successful) & (st_np != RESULTS.successful))
+    fresh = fresh[fresh < n_real]  # not the copies that pad the last chunk
+    if fresh.size == 0:
+        return x, st, fl, saved, rc
+    x, st, fl, saved, rc = (np.array(a) for a in (x, st, fl, saved, rc))
+    blk = (fl[fresh] - n0) // k
+    start = np.zeros(st.shape, np.int64)
+    R = min(C, 64)  # re-simulated particles per call (one more compiled shape of the bare kernel)
+    members = np.empty(0, np.int64)
+
+    def run_block(idx, nb):
+        for lo in range(0, idx.size, R):
+            part = idx[lo:lo + R]
+            pad = np.concatenate([np.arange(part.size), np.zeros(R - part.size, np.int64)])
+            out = block_kernel(jnp.asarray(x[part][pad]), jnp.zeros(R, jnp.int32),
+                               jnp.full(R, -1, jnp.int32), jnp.asarray(nb), h, stop,
+                               jnp.zeros(R, jnp.int32), jnp.asarray(start[part][pad], dtype=jnp.int32))
+            x[part], st[part], fl[part] = (np.asarray(o)[: part.size] for o in out[:3])
+
+    for b in range(int(blk.min()), L):
+        nb = n0 + b * k
+        if nb >= int(stop):
+            break
+        members = np.concatenate([members, fresh[blk == b]])
+        run = members[st[members] == RESULTS.successful]
+        start[run] = nb
+        pending = members[st[members] != RESULTS.successful]
+        while True:
+            if pending.size:  # take the failed step with the recovering method
+                X, s2, code = recover_points(method, x[pending], float(h))
+                count_how(code, how)
+                ok = s2 == RESULTS.successful
+                good, dead = pending[ok], pending[~ok]
+                saved[dead, b:] = x[dead][:, None]  # frozen for good, with the bare status and step
+                members = np.setdiff1d(members, dead)
+                x[good], rc[good], start[good] = X[ok], rc[good] + 1, fl[good] + 1
+                st[good], fl[good] = RESULTS.successful, -1
+                run = np.concatenate([run, good])
+            if run.size == 0:
+                break
+            run_block(run, nb)
+            pending, run = run[st[run] != RESULTS.successful], np.empty(0, np.int64)
+        saved[members, b] = x[members]
+    return tuple(jnp.asarray(a) for a in (x, st, fl, saved, rc))
 
 
 def auto_chunk_size(n_particles: int, n_saves: int = 2) -> int:
@@ -264,6 +350,11 @@ class _StepFn:
 
     def __call__(self, x, h):
         return self.method.step_with_status(x, h)
+
+    def __getattr__(self, item):  # step_with_recovery where the method has it (issue #12)
+        if item == "with_recovery" and hasattr(self.method, "step_with_recovery"):
+            return self.method.step_with_recovery
+        raise AttributeError(item)
 
     def __hash__(self) -> int:
         return id(self.method)
@@ -369,6 +460,7 @@ def integrate(
     chunk_size: int | None = None,
     progress: bool | str = "auto",
     segment_blocks: int | None = None,
+    backend: str = "auto",
 ) -> Solution:
     """Advance x0 by ``n_steps`` steps of size h with ``method``; return a :class:`Solution`.
 
@@ -393,8 +485,21 @@ def integrate(
         when the run is expected to take more than ~1 s.
     segment_blocks:
         Save-blocks per compiled call inside a chunk (the progress granularity); ``None`` = auto.
+    backend:
+        ``"auto"`` (native C kernel when the method can be generated and a compiler exists, else
+        JAX), ``"jax"`` or ``"native"`` (a :class:`VPFormsError` says why if it cannot); see
+        :mod:`vpforms.backends`.  ``Solution.stats["backend"]`` says which ran.
     """
     pts, single, h, n_steps = _check_run(method, x0, h, n_steps, t0)
+    from .backends import select_backend  # the one dispatch hook (issue 9)
+
+    backend, backend_reason = select_backend(method, backend)
+    if backend == "native":
+        from .backends.native.runner import integrate_native
+
+        if chunk_size is not None and int(chunk_size) < 1:  # the same check as the JAX path
+            raise ValueError(f"chunk_size must be ≥ 1, got {chunk_size}")
+        return integrate_native(method, pts, single, h, n_steps, save_every, t0, progress, backend_reason)
     N = pts.shape[0]
     if save_every is None:
         # only x0 and the final state are kept: fixed blocks (32 steps, 8 per call) so that every
@@ -426,9 +531,12 @@ def integrate(
     xs = np.empty((N, S, 3))
     status = np.zeros(N, dtype=np.int32)
     failed = np.full(N, -1, dtype=np.int64)
+    recovered = np.zeros(N, dtype=np.int64)
     xs[:, 0] = pts
-    step_fn = _StepFn(method)
-    kernel = partial(_segment_kernel, step_fn, k, L)
+    bare = bare_method(method)  # recovery runs lazily, on the host, where a bare step failed
+    kernel = partial(_segment_kernel, _StepFn(bare), k, L)
+    block_kernel = partial(_segment_kernel, _StepFn(bare), k, 1)  # re-simulation after a recovery
+    recovered_how: dict[str, int] = {}
     hj = jnp.asarray(h)
     stop = jnp.asarray(n_steps)  # steps n ≥ n_steps of an overshooting segment are skipped
 
@@ -443,10 +551,15 @@ def integrate(
             x = jnp.asarray(block)
             st = jnp.zeros(C, dtype=jnp.int32)
             fl = jnp.full(C, -1, dtype=jnp.int32)
+            rc = jnp.zeros(C, dtype=jnp.int32)
             for s in range(n_segments):
                 n0 = s * L * k
-                x, st, fl, saved = kernel(x, st, fl, jnp.asarray(n0), hj, stop)
+                st_before = st
+                x, st, fl, saved, rc = kernel(x, st, fl, jnp.asarray(n0), hj, stop, rc)
                 x.block_until_ready()  # dispatch is asynchronous: sync so the bar tracks real work
+                if bare is not method:
+                    x, st, fl, saved, rc = _recover_segment(
+                        method, block_kernel, C, hi - lo, k, L, n0, hj, stop, st_before, x, st, fl, saved, rc, recovered_how)
                 if save_every is not None:
                     b_lo = s * L
                     b_hi = min(b_lo + L, n_blocks)
@@ -456,6 +569,7 @@ def integrate(
                 xs[lo:hi, -1] = np.asarray(x)[: hi - lo]
             status[lo:hi] = np.asarray(st)[: hi - lo]
             failed[lo:hi] = np.asarray(fl)[: hi - lo]
+            recovered[lo:hi] = np.asarray(rc)[: hi - lo]
     finally:
         bar.close()
     wall = time.perf_counter() - t_wall
@@ -465,9 +579,13 @@ def integrate(
         "chunk_size": C,
         "n_chunks": n_chunks,
         "ns_per_particle_step": (1e9 * wall / (N * n_steps)) if N * n_steps else float("nan"),
+        "backend": "jax",
+        "backend_reason": backend_reason,
+        **({"recovered_how": recovered_how} if recovered_how else {}),
     }
     ts = t0 + h * steps.astype(np.float64)
     if single:
-        return Solution(ts, steps, xs[0], status[0], failed[0], describe(method), h, n_steps, save_every, t0, stats)
-    return Solution(ts, steps, xs, status, failed, describe(method), h, n_steps, save_every, t0, stats)
+        return Solution(ts, steps, xs[0], status[0], failed[0], describe(method), h, n_steps, save_every, t0, stats,
+                        int(recovered[0]))
+    return Solution(ts, steps, xs, status, failed, describe(method), h, n_steps, save_every, t0, stats, recovered)
 

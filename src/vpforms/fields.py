@@ -37,6 +37,7 @@ from sympy.core.function import AppliedUndef
 
 from . import _config  # noqa: F401  (float64)
 from ._errors import NotDivergenceFreeError, VPFormsError
+from ._field_input import alias_coordinates, constant_jacobian
 from ._quadrature import DEFAULT_N, line_integral
 
 __all__ = [
@@ -493,7 +494,7 @@ class Field:
         if not all(isinstance(s, sp.Symbol) for s in symbols) or len(set(symbols)) != 3:
             raise ValueError(f"symbols must be three distinct SymPy symbols; got {symbols!r}")
         subs, pvals = _param_subs(params, exprs, potentials, symbols)
-        exprs = tuple(e.xreplace(subs) if subs else e for e in exprs)
+        exprs = alias_coordinates(tuple(e.xreplace(subs) if subs else e for e in exprs), symbols)
         extra = set().union(*(e.free_symbols for e in exprs)) - set(symbols)
         if extra:
             raise ValueError(
@@ -724,6 +725,12 @@ class Field:
         f.linear_matrix = M.copy()
         return f
 
+    def spec(self) -> dict:
+        """The JSON-able spec that rebuilds this field (:func:`vpforms.field_from_spec`)."""
+        from ._spec import field_spec
+
+        return field_spec(self)
+
     def __repr__(self) -> str:
         kind = "sympy" if self.exprs is not None else "callable"
         return f"Field(name={self.name!r}, {kind}, box={self.box})"
@@ -901,6 +908,12 @@ def _numeric_jac_scale(exprs, symbols, pts) -> float:
 
 
 def _detect_linear(exprs, symbols) -> np.ndarray | None:
+    """A if a(x) = A x: a homogeneous linear polynomial, else a constant Jacobian with a(0) = 0."""
+    A = _linear_polynomial(exprs, symbols)
+    return A if A is not None else constant_jacobian(exprs, symbols)
+
+
+def _linear_polynomial(exprs, symbols) -> np.ndarray | None:
     """A if every component is a homogeneous linear polynomial with numeric coefficients."""
     A = np.zeros((3, 3))
     for i, e in enumerate(exprs):

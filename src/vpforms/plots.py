@@ -91,9 +91,10 @@ def poincare_figure(section: Any, title: str | None = None, path: str | None = N
         plane = f"{normal} = {section.value:g}"
     way = {1: f"{normal} increasing", -1: f"{normal} decreasing", 0: "both directions"}[section.direction]
     n_orbits = int(np.count_nonzero(np.asarray(section.counts) > 0))
+    n_total = int(np.asarray(section.counts).size)
     ax.set_title(
         (title + "\n" if title else "")
-        + f"Poincaré section {plane}, {way}\n{M} crossings of {n_orbits} orbits",
+        + f"Poincaré section {plane}, {way}\n{M} crossings; {n_orbits} of {n_total} orbits crossed",
         fontsize=10,
     )
     ax.grid(True, lw=0.3, alpha=0.4)
@@ -124,9 +125,12 @@ def order_figure(
         c = line.get_color()
         m = markers[i % len(markers)]
         ms = max(9.0 - 1.3 * i, 4.0)  # shrinking markers: coinciding curves stay visible
-        ax.loglog(hs[good & used], er[good & used], m, color=c, ms=ms,
+        z = 3 + i
+        if str(name).strip().lower().startswith("rk"):  # a cross on top: RK4 coincides with order 4
+            m, ms, z = "x", 9.0, 50
+        ax.loglog(hs[good & used], er[good & used], m, color=c, ms=ms, zorder=z,
                   label=f"{name}: observed order {fit.order:.2f}")
-        ax.loglog(hs[good & ~used], er[good & ~used], m, color=c, ms=ms, mfc="none")
+        ax.loglog(hs[good & ~used], er[good & ~used], m, color=c, ms=ms, mfc="none", zorder=z)
         all_h.append(hs[good])
         all_e.append(er[good])
     if all_h:

@@ -106,12 +106,24 @@ class Method(ABC):
         return fn(x, jnp.broadcast_to(as_points(X), x.shape), h)
 
     # -- public, jit-compatible evaluation ------------------------------------------------------
+    def _batched_step(self, x, h):
+        """(X, status, iterations, recovered) on a batch x of shape (N, 3): the bare step is the
+        per-point kernel vmapped; recovering methods (``_methods/recover.py``) and compositions
+        override this to decide recovery once per batch (an unbatched ``lax.cond``)."""
+        X, st, it = jax.vmap(lambda p: self._forward(p, h))(x)
+        return X, st, it, jnp.zeros(st.shape, jnp.int32)
+
     def _jitted(self):
         fn = getattr(self, "_jit_cache", None)
         if fn is None:
 
             def run(x, h):
-                return batched(lambda p: self._forward(p, h), x)
+                if x.ndim == 1:
+                    out = self._batched_step(x[None], h)
+                    return tuple(o[0] for o in out)
+                lead = x.shape[:-1]
+                out = self._batched_step(x.reshape(-1, 3), h)
+                return tuple(o.reshape(*lead, *o.shape[1:]) for o in out)
 
             fn = jax.jit(run)
             self._jit_cache = fn
@@ -119,8 +131,18 @@ class Method(ABC):
 
     def step_with_status(self, x: Any, h: Any, *, return_iterations: bool = False):
         """(X, status[, iterations]) for x of shape (3,) or (N, 3); jit/vmap-compatible."""
-        X, status, iters = self._jitted()(as_points(x), jnp.asarray(h, dtype=jnp.result_type(float)))
+        X, status, iters, _ = self._jitted()(as_points(x), jnp.asarray(h, dtype=jnp.result_type(float)))
         return (X, status, iters) if return_iterations else (X, status)
+
+    def step_with_recovery(self, x: Any, h: Any):
+        """(X, status, recovered) for x of shape (3,) or (N, 3); ``recovered`` is 0 where the bare
+        step succeeded, else a :class:`vpforms.RECOVERY` code saying how the step was recovered."""
+        X, status, _, rec = self._jitted()(as_points(x), jnp.asarray(h, dtype=jnp.result_type(float)))
+        return X, status, rec
+
+    def without_recovery(self) -> "Method":
+        """The same method with recovery stripped at every level (``self`` for a bare method)."""
+        return self
 
     def step(self, x: Any, h: Any) -> jax.Array:
         """X = Ψ_h(x), same shape as x (use :meth:`step_with_status` to see failures)."""
@@ -196,6 +218,12 @@ class Method(ABC):
     def adjoint(self) -> "Method":
         """Ψ*_h = (Ψ_{−h})⁻¹ (prop:switchperm): case (Σ, σ), evaluated through the inverse map."""
         return Adjoint(self)
+
+    def spec(self) -> dict:
+        """The JSON-able construction record that rebuilds this method (:func:`vpforms.method_from_spec`)."""
+        from .._spec import method_spec
+
+        return method_spec(self)
 
     def __repr__(self) -> str:
         return (
@@ -273,6 +301,10 @@ class Relabelled(Method):
         self._pi_idx = jnp.asarray(self.pi.index)
         self._pi_inv_idx = jnp.asarray(self.pi.inverse().index)
 
+    def without_recovery(self) -> Method:
+        bare = self.base.without_recovery()
+        return self if bare is self.base else Relabelled(bare, self.pi, self.field)
+
     def _guess(self, x, h):
         g, n = self.base._guess(x[self._pi_idx], h)
         return g[self._pi_inv_idx], n
@@ -315,6 +347,10 @@ class Adjoint(Method):
 
     def adjoint(self) -> Method:
         return self.base
+
+    def without_recovery(self) -> Method:
+        bare = self.base.without_recovery()
+        return self if bare is self.base else bare.adjoint()
 
     def _guess(self, x, h):
         return self.base._guess_inverse(x, -h)

@@ -14,6 +14,7 @@ import jax.numpy as jnp
 import numpy as np
 from jax import lax
 
+from .._spec import records_spec
 from ._base import Method, merge_status
 
 __all__ = ["compose", "COMPOSITIONS", "Composition", "SymmetricPair", "triple_jump"]
@@ -78,6 +79,15 @@ class SymmetricPair(Method):
         x, s2, n2 = self.base._backward(y, h / 2)
         return x, merge_status(s1, s2), n1 + n2
 
+    def _batched_step(self, x, h):  # stage by stage: each stage decides its own recovery
+        y, s1, n1, r1 = self.base._batched_step(x, h / 2)
+        X, s2, n2, r2 = self.adj._batched_step(y, h / 2)
+        return X, _merge(s1, s2), n1 + n2, jnp.maximum(r1, r2)
+
+    def without_recovery(self) -> Method:
+        bare = self.base.without_recovery()
+        return self if bare is self.base else SymmetricPair(bare)
+
 
 class Composition(Method):
     """S_{γ_s h} ∘ … ∘ S_{γ_1 h} for a symmetric method S (one compiled stage, ``lax.scan``)."""
@@ -97,7 +107,7 @@ class Composition(Method):
             return (X, merge_status(st, s), n + k), None
 
         init = (x, jnp.int32(0), jnp.int32(0))
-        (X, st, n), _ = lax.scan(body, init, self._g)
+        (X, st, n), _ = lax.scan(body, init, self._g, unroll=True)  # unrolled: see notes/issue-9-jax.md
         return X, st, n
 
     def _backward(self, X, h):
@@ -107,10 +117,33 @@ class Composition(Method):
             return (x, merge_status(st, s), n + k), None
 
         init = (X, jnp.int32(0), jnp.int32(0))
-        (x, st, n), _ = lax.scan(body, init, self._g[::-1])
+        (x, st, n), _ = lax.scan(body, init, self._g[::-1], unroll=True)
         return x, st, n
 
+    def _batched_step(self, x, h):  # stage by stage: each stage decides its own recovery
+        def body(carry, g):
+            x, st, n, r = carry
+            X, s, k, q = self.base._batched_step(x, g * h)
+            return (X, _merge(st, s), n + k, jnp.maximum(r, q)), None
 
+        z = jnp.zeros(x.shape[0], jnp.int32)
+        (X, st, n, r), _ = lax.scan(body, (x, z, z, z), self._g)
+        return X, st, n, r
+
+    def without_recovery(self) -> Method:
+        bare = self.base.without_recovery()
+        if bare is self.base:
+            return self
+        out = Composition(bare, self.gammas, self.order, "")
+        out.name = self.name.replace(self.base.name, bare.name)
+        return out
+
+
+def _merge(a, b):
+    return jnp.where(a == 0, b, a).astype(jnp.int32)
+
+
+@records_spec("compose")
 def compose(method: Method, order: int = 2, scheme: str | None = None) -> Method:
     """A method of order 2, 4 or 6 from ``method`` (any order-1 method of vpforms).
 

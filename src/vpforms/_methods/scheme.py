@@ -17,6 +17,7 @@ from typing import Any
 
 from .._case import CLASSES, Case
 from .._perm import Perm
+from .._spec import records_spec
 from ._base import Method, Relabelled, RecipeError
 from ._relabel import relabelled_field
 from ._representatives import REPRESENTATIVES
@@ -86,6 +87,7 @@ def _only(options, cls, allowed):
         raise ValueError(f"option(s) {sorted(bad)} do not apply to class {cls} (allowed: {allowed})")
 
 
+@records_spec("scheme")
 def scheme(field: Any, case: Case | str | tuple = "SE+SE", **options) -> Method:
     """A volume-preserving method for ``field`` and ``case``.
 
@@ -93,10 +95,21 @@ def scheme(field: Any, case: Case | str | tuple = "SE+SE", **options) -> Method:
     "SE+DL" (= "DL+SE"), "DL+DL", "S1", "S2") for its representative. The method is the class
     recipe (:func:`representative_method`, whose options apply) relabelled (prop:trivperm) and,
     for the SE+DL 3-cycle τ₀⁻¹, adjoined (prop:switchperm).
+
+    ``recover=True`` (default): where the step fails, other cases of the class, then other classes,
+    then 2…2^``recover_substeps`` sub-steps are tried (``vpforms._methods.recover``);
+    ``recover=False`` is the bare method. ``recover_classes=False`` skips the other classes.
     """
     if not (callable(field) and hasattr(type(field), "se_potentials") and hasattr(type(field), "dl_potentials")):
         raise TypeError(f"scheme needs a vpforms.Field (e.g. vpforms.problems.get('abc').field), "
                         f"got {type(field).__name__}")
+    recover = options.pop("recover", True)
+    substeps = options.pop("recover_substeps", 6)
+    classes = options.pop("recover_classes", True)
+    if recover:  # issue #12: alternatives where the bare step fails (see _methods/recover.py)
+        from .recover import recovering_scheme
+
+        return recovering_scheme(scheme, field, case, options, substeps, classes)
     if isinstance(case, str):
         c = REPRESENTATIVES[class_name(case)]
     elif isinstance(case, Case):

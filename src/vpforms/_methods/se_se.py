@@ -57,7 +57,10 @@ class SESEFast(SESE):
 
     Each scalar equation that is explicit — decided symbolically from the closed-form potentials
     (e.g. ABC: ∂₂F¹ does not depend on x₃, ∂₁F³ not on x₂) — is evaluated in closed form; the
-    others use the one scalar Newton. The inverse and the adjoint use the generic engine.
+    others use the one scalar Newton. The inverse Ψ_h⁻¹ — hence the adjoint Ψ*_h = (Ψ_{−h})⁻¹,
+    which :class:`~vpforms._methods._base.Adjoint` evaluates as ``_backward(x, −h)`` — is the
+    inverse shears in reverse order, explicit where the same symbolic test holds for the inverse
+    equations (e.g. ABC: ∂₂F³ free of x₁, ∂₃F¹ free of x₂), one scalar Newton otherwise.
     """
 
     name = "SE+SE(fast)"
@@ -66,6 +69,7 @@ class SESEFast(SESE):
     def __init__(self, field: Any, *, newton: dict | None = None):
         super().__init__(field, newton=newton)
         self.explicit = _explicit_flags(field)
+        self.explicit_inverse = _explicit_inverse_flags(field)
         g = jax.grad
         self._d2F1, self._d3F1 = g(self._F1, 1), g(self._F1, 2)
         self._d1F3, self._d2F3 = g(self._F3, 0), g(self._F3, 1)
@@ -98,6 +102,49 @@ class SESEFast(SESE):
         X = jnp.stack([X1, X2, X3])
         status = merge_status(s3, s2, jnp.where(jnp.all(jnp.isfinite(X)), 0, 3))
         return X, status, i3 + i2
+
+
+    def _backward(self, X, h):
+        X1, X2, X3 = X[0], X[1], X[2]
+        e1, e2 = self.explicit_inverse
+        opts = dict(self.newton)
+        d2F1, d3F1, d1F3, d2F3 = self._d2F1, self._d3F1, self._d1F3, self._d2F3
+        # x₁ from X₁ = x₁ + h∂₂F³(x₁, X₂, X₃)   (volpot3, solved for x₁)
+        if e1:
+            x1, s1, i1 = X1 - h * d2F3(X1, X2, X3), jnp.int32(0), jnp.int32(0)
+        else:
+            x1, s1, i1 = newton_scalar(
+                lambda z, p: z - p[0] + p[3] * d2F3(z, p[1], p[2]),
+                jax.grad(lambda z, p: z - p[0] + p[3] * d2F3(z, p[1], p[2])),
+                X1, (X1, X2, X3, h), **opts,
+            )
+        # x₂ from x₂ + h∂₃F¹(x₁, x₂, X₃) = X₂ + h∂₁F³(x₁, X₂, X₃)   (volpot2, solved for x₂)
+        c = X2 + h * d1F3(x1, X2, X3)
+        if e2:
+            x2, s2, i2 = c - h * d3F1(x1, X2, X3), jnp.int32(0), jnp.int32(0)
+        else:
+            x2, s2, i2 = newton_scalar(
+                lambda z, p: z - p[1] + p[3] * d3F1(p[0], z, p[2]),
+                jax.grad(lambda z, p: z - p[1] + p[3] * d3F1(p[0], z, p[2])),
+                X2, (x1, c, X3, h), **opts,
+            )
+        x3 = X3 + h * d2F1(x1, x2, X3)  # volpot1, explicit for x₃
+        x = jnp.stack([x1, x2, x3])
+        status = merge_status(s1, s2, jnp.where(jnp.all(jnp.isfinite(x)), 0, 3))
+        return x, status, i1 + i2
+
+
+def _explicit_inverse_flags(field) -> tuple[bool, bool]:
+    """(∂₂F³ free of x₁, ∂₃F¹ free of x₂), symbolically: the inverse shears are explicit."""
+    exprs = getattr(field, "se_potential_exprs", None)
+    if exprs is None or field.symbols is None:
+        return False, False
+    x1, x2, x3 = field.symbols
+    F1, F3 = (sp.sympify(e) for e in exprs)
+    return (
+        x1 not in sp.diff(F3, x2).free_symbols,
+        x2 not in sp.diff(F1, x3).free_symbols,
+    )
 
 
 def _explicit_flags(field) -> tuple[bool, bool]:

@@ -39,7 +39,8 @@ def main(argv: list[str] | None = None) -> int:
     """Run the CLI; returns the exit code (0 ok, 1 failed computation, 2 bad arguments)."""
     from rich.console import Console
 
-    console = Console()
+    wide = not sys.stdout.isatty() and not os.environ.get("COLUMNS")
+    console = Console(width=250) if wide else Console()  # tables don't wrap in pipes
     debug = bool(os.environ.get("VPFORMS_DEBUG"))
     try:
         args = build_parser().parse_args(argv)

@@ -29,22 +29,25 @@ def _parse_perm(text: str):
         raise CLIError(f"{text!r} is not a permutation of (1, 2, 3); write e.g. 321, 3,2,1 or (3,2,1)")
     try:
         return Perm(tuple(int(c) for c in digits))
-    except (ValueError, TypeError) as exc:
-        raise CLIError(f"{text!r} is not a permutation of (1, 2, 3): {exc}") from None
+    except (ValueError, TypeError):
+        raise CLIError(f"{text!r} is not a permutation of (1, 2, 3) (a repeated or out-of-range "
+                       "digit); write e.g. 321, 3,2,1 or (3,2,1)") from None
 
 
 def _parse_value(text: str):
-    """An int or float literal, else a SymPy expression such as sqrt(2/3)."""
+    """An int or float literal, else a constant SymPy expression such as sqrt(2/3)."""
+    if not text:
+        raise CLIError("a parameter has no value: write NAME=VALUE, e.g. --param C=0")
     for conv in (int, float):
         try:
             return conv(text)
         except ValueError:
             pass
-    import sympy as sp
+    from .._parse import FieldSyntaxError, parse_number  # never sympify (eval) user text
 
     try:
-        return sp.sympify(text)
-    except (sp.SympifyError, SyntaxError, TypeError) as exc:
+        return parse_number(text, what="parameter value")
+    except FieldSyntaxError as exc:
         raise CLIError(f"cannot read parameter value {text!r}: {exc}") from None
 
 
@@ -100,34 +103,59 @@ def _problem(args):
         from .. import problems
     except ImportError as exc:  # pragma: no cover - only while issue #4 is missing
         raise CLIError(f"the problem library (vpforms.problems) is not available: {exc}") from None
+    from . import _fields
+
     params = _parse_params(getattr(args, "param", None))
+    name = _fields.problem_name(args)  # --field/--field-file (issue #11) or --problem, and --x0
+    if _fields.wants_user_field(args):
+        return _fields.with_x0(_fields.user_problem(args, params), args)
     try:
-        return problems.get(args.problem, **params)
+        return _fields.with_x0(problems.get(name, **params), args)
     except KeyError as exc:
         raise CLIError(str(exc.args[0] if exc.args else exc)) from None
     except TypeError as exc:
-        raise CLIError(f"bad parameters for problem {args.problem!r}: {exc}") from None
+        raise CLIError(_bad_params_message(problems, name, params, exc)) from None
+    except ValueError as exc:  # e.g. a value out of the problem's range
+        raise CLIError(f"bad parameters for problem {name!r}: {exc}") from None
+
+
+def _bad_params_message(problems, name, params, exc) -> str:
+    """Name the parameters the problem does not take and list the ones it does."""
+    import inspect
+
+    make = problems._MAKERS[str(name).lower().replace("-", "_")][0]
+    kinds = (inspect.Parameter.POSITIONAL_OR_KEYWORD, inspect.Parameter.KEYWORD_ONLY)
+    valid = [p.name for p in inspect.signature(make).parameters.values()
+             if p.kind in kinds and p.name not in ("name", "source")]
+    if name == "abc_gi":
+        valid = ["A", "B", "C"]
+    bad = [k for k in params if k not in valid]
+    if not bad:
+        return f"bad parameters for problem {name!r}: {exc}"
+    return (f"problem {name!r} has no parameter(s) {', '.join(bad)}; its parameters are "
+            f"{', '.join(valid) if valid else '(none)'}")
 
 
 _METHODS: dict = {}
 
 
-def _method(field, cls: str = "SE+SE", case=None, order: int = 1, fast: bool = False, theta=None):
+def _method(field, cls: str = "SE+SE", case=None, order: int = 1, fast: bool = False, theta=None,
+            recover: bool = True):
     """A vpforms method (class representative or explicit case, composed to ``order``) or RK4.
 
     Methods are cached per (field, options) so that repeated in-process calls (tests, the demo)
     reuse their compiled kernels.
     """
-    key = (id(field), str(cls).strip().upper(), case, order, fast, theta)
+    key = (id(field), str(cls).strip().upper(), case, order, fast, theta, recover)
     hit = _METHODS.get(key)
     if hit is not None and hit[0] is field:
         return hit[1]
-    m = _make_method(field, cls, case, order, fast, theta)
+    m = _make_method(field, cls, case, order, fast, theta, recover)
     _METHODS[key] = (field, m)
     return m
 
 
-def _make_method(field, cls, case, order, fast, theta):
+def _make_method(field, cls, case, order, fast, theta, recover=True):
     from .._integrate import RK4
 
     if str(cls).strip().lower() == "rk4":
@@ -143,6 +171,8 @@ def _make_method(field, cls, case, order, fast, theta):
         opts["fast"] = True
     if theta is not None:
         opts["theta"] = theta
+    if not recover:  # issue #12: --no-recover
+        opts["recover"] = False
     try:
         m = scheme(field, case if case is not None else cls, **opts)
     except ValueError as exc:  # unknown class, option that does not apply, bad θ: a usage error
@@ -160,7 +190,8 @@ def _method_from_args(args, field):
         from .._case import Case
 
         case = Case(_parse_perm(args.case[0]), _parse_perm(args.case[1]))
-    return _method(field, args.method, case, args.order, args.fast, args.theta)
+    return _method(field, args.method, case, args.order, args.fast, args.theta,
+                   not getattr(args, "no_recover", False))
 
 
 def _parse_method_spec(spec: str) -> tuple[str, int]:
@@ -208,9 +239,15 @@ def _add_problem_args(p, default_problem="abc"):
                    help="problem parameter, repeatable or comma-separated, e.g. --param C=0 or "
                         "--param B=sqrt(2/3)")
     p.add_argument("--seed", type=int, default=0, help="seed of the initial conditions (default 0)")
+    from ._fields import add_field_args
+
+    add_field_args(p, default_problem)  # --field, --field-file, --box, --x0 (issue #11)
 
 
-def _add_method_args(p, default_order=1):
+def _add_method_args(p, default_order=1, backend=False):
+    if backend:  # integrate's backend (issue 9): native C kernel where it can be generated
+        p.add_argument("--backend", choices=("auto", "jax", "native"), default="auto",
+                       help="auto (native where available, else JAX; default), jax or native")
     p.add_argument("--method", default="SE+SE", metavar="CLASS",
                    help="class representative: SE+SE, SE+DL (= DL+SE), DL+DL, S1, S2, or rk4 "
                         "(the explicit baseline); default SE+SE")
@@ -221,4 +258,6 @@ def _add_method_args(p, default_order=1):
     p.add_argument("--fast", action="store_true", help="closed-form SE+SE path (no Newton)")
     p.add_argument("--theta", type=_finite_float, default=None,
                    help="θ of the discrete Lagrangian (DL classes): 0 or 0.5")
+    p.add_argument("--no-recover", action="store_true",
+                   help="freeze a particle at a failed step instead of recovering it (bare method)")
 

@@ -46,7 +46,8 @@ def _cmd_demo(args, console) -> int:
     png1 = os.path.join(out, "poincare_abc.png")
     plots.poincare_figure(sec, title=f"ABC flow (A, B, C) = (1, √(2/3), √(1/3)): SE+SE, order 2, h = {h:g}",
                           path=png1)
-    sec.to_csv(os.path.join(out, "poincare_abc.csv"))
+    csv1 = os.path.join(out, "poincare_abc.csv")
+    sec.to_csv(csv1)
     console.print(f"[green]✓[/green] Poincaré section x₃ = 0 mod 2π: {sec.points.shape[0]} crossings of "
                   f"{n_orb} orbits over t = {n_steps * h:g} ({time.perf_counter() - t:.1f} s) → {png1}")
 
@@ -77,7 +78,7 @@ def _cmd_demo(args, console) -> int:
     console.print("\n".join(lines))
     console.print(f"[green]✓[/green] drift plot ({time.perf_counter() - t:.1f} s) → {png3}")
     console.print(Panel.fit(f"demo finished in {time.perf_counter() - t_all:.1f} s; figures in {out}:\n"
-                            f"  {png1}\n  {png2}\n  {png3}", style="green"))
+                            f"  {png1}\n  {png2}\n  {png3}\ncrossings CSV: {csv1}", style="green"))
     del np
     return 0
 

@@ -113,7 +113,7 @@ def _cmd_drift(args, console) -> int:
     plots.drift_figure(panels, title=f"Drift on {prob.name}, h = {args.h:g}: vpforms vs RK4", path=args.png)
     t = Table(title=f"drift on {prob.name}, h = {args.h:g}, {args.steps} steps, {args.particles} orbits")
     keys = list(next(iter(stats.values())))
-    t.add_column("method")
+    t.add_column("method", no_wrap=True, min_width=max(map(len, stats)))  # never cut the name
     for k in keys:
         t.add_column(k, justify="right")
     for label, row in stats.items():

@@ -35,6 +35,12 @@ def _cmd_cases(args, console) -> int:
 
     from .._case import cases
 
+    if args.format != "rich":  # the renderers of vpforms.symbolic.tables (issue #11)
+        from ..symbolic import tables
+
+        print((tables.table36_markdown if args.format == "markdown" else tables.table36_latex)(
+            prove=args.prove), end="")
+        return 0
     console.print(_cases_table())
     counts = Counter(c.cls for c in cases())
     console.print("class counts: " + ", ".join(f"{k} {v}" for k, v in counts.items()))
@@ -109,6 +115,10 @@ def register(sub) -> None:
     """Add this group's subcommands to the subparsers ``sub``."""
     p = sub.add_parser("cases", help="print the 36-case classification table",
                        description="Print the 36 cases (σ, Σ), τ = σ⁻¹∘Σ, its sign and class.")
+    p.add_argument("--format", choices=("rich", "markdown", "latex"), default="rich",
+                   help="rich table (default), or Markdown / LaTeX longtable with the forms of each case")
+    p.add_argument("--prove", action="store_true",
+                   help="with --format markdown|latex: prove dλ = f*ν̃ − ν for each case (SymPy, slower)")
     p.set_defaults(func=_cmd_cases)
 
     p = sub.add_parser("classify", help="classify a case (σ, Σ)",

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import time
 
+from . import _distributed
 from ._common import (
     CLIError,
     _add_method_args,
@@ -27,13 +28,21 @@ def _cmd_run(args, console) -> int:
     prob = _problem(args)
     method = _method_from_args(args, prob.field)
     x0 = prob.initial_conditions(args.particles, seed=args.seed)
-    sol = integrate(method, x0, args.h, args.steps, save_every=args.save_every,
-                    chunk_size=args.chunk_size, progress="auto")
+    if str(args.out).endswith(".zarr"):  # a store run: chunked, resumable, optionally distributed
+        return _distributed.cmd_run_store(args, prob, method, x0, console)
+    from ..backends import NativeUnavailableError
+
+    try:
+        sol = integrate(method, x0, args.h, args.steps, save_every=args.save_every,
+                        chunk_size=args.chunk_size, progress="auto", backend=args.backend)
+    except NativeUnavailableError as exc:
+        raise CLIError(str(exc)) from None
     sol.save(args.out)
     rows = {
         "problem": prob.name,
         "method": sol.method,
-        "particles": args.particles,
+        "backend": f"{sol.stats['backend']} ({sol.stats['backend_reason']})",
+        "particles": len(x0),
         "h": args.h,
         "steps": args.steps,
         "t final": float(sol.ts[-1]),
@@ -105,14 +114,15 @@ def register(sub) -> None:
                        description="Integrate particles of a test problem; write ts, xs, status to an .npz "
                                    "and print a summary.")
     _add_problem_args(p)
-    _add_method_args(p)
+    _add_method_args(p, backend=True)
     p.add_argument("--h", type=_positive_float, default=0.1, help="step size (default 0.1)")
     p.add_argument("--steps", type=_positive_int, default=1000, help="number of steps (default 1000)")
     p.add_argument("--particles", type=_positive_int, default=100, help="number of particles (default 100)")
     p.add_argument("--save-every", type=_positive_int, default=None,
                    help="save every k-th state (default: only the initial and final states)")
     p.add_argument("--chunk-size", type=_positive_int, default=None, help="particles per compiled call")
-    p.add_argument("--out", default="vpforms-run.npz", help="output .npz (default vpforms-run.npz)")
+    p.add_argument("--out", default="vpforms-run.npz", help="output .npz, or a .zarr store (default vpforms-run.npz)")
+    _distributed.add_args(p)
     p.set_defaults(func=_cmd_run)
 
     p = sub.add_parser("poincare", help="Poincaré section: PNG + crossings CSV",

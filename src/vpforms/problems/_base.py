@@ -8,11 +8,14 @@ from typing import Any
 
 import jax
 import jax.numpy as jnp
+import numbers
+
 import numpy as np
+import sympy as sp
 
 from ..fields import SYMBOLS, Field, _lambdify_scalar, uniform_in_box
 
-__all__ = ["Problem", "invariant_callables", "box_sampler"]
+__all__ = ["Problem", "invariant_callables", "box_sampler", "real_param"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -92,3 +95,19 @@ def invariant_callables(exprs: Mapping[str, Any], symbols=SYMBOLS) -> dict[str, 
 def box_sampler(box) -> Callable[[np.random.Generator, int], np.ndarray]:
     """A sampler (rng, n) -> (n, 3) uniform in the box (:func:`vpforms.fields.uniform_in_box`)."""
     return lambda rng, n: uniform_in_box(box, rng, n)
+
+
+def real_param(name: str, value: Any):
+    """A problem parameter as a SymPy number: numbers as they are, text through the safe reader
+    :func:`vpforms._parse.parse_number` (never ``sympify``/eval of text); anything else is a
+    TypeError naming the parameter (found by tests/test_fuzz.py: a list gave AttributeError)."""
+    if isinstance(value, str):
+        from .._parse import parse_number
+
+        return parse_number(value, what=f"parameter {name}")
+    if isinstance(value, bool) or not isinstance(value, (numbers.Real, sp.Basic)):
+        raise TypeError(f"parameter {name} must be a real number, not {type(value).__name__} {value!r}")
+    v = sp.sympify(value)
+    if not isinstance(v, sp.Expr):
+        raise TypeError(f"parameter {name} must be a real number, not {v!r}")
+    return v

@@ -21,7 +21,7 @@ import numpy as np
 import sympy as sp
 
 from ..fields import SYMBOLS, Field
-from ._base import Problem, box_sampler, invariant_callables
+from ._base import Problem, box_sampler, invariant_callables, real_param
 
 __all__ = ["make", "default", "make_geometric_integrators", "DEFAULTS", "GEOMETRIC_INTEGRATORS"]
 
@@ -56,9 +56,9 @@ def spec_se_potentials(A, B, C, symbols=SYMBOLS):
 
 def make(A=None, B=None, C=None, *, name: str = "abc", source: str = SOURCE) -> Problem:
     """The ABC flow with parameters A, B, C (defaults :data:`DEFAULTS`)."""
-    A = sp.sympify(DEFAULTS["A"] if A is None else A)
-    B = sp.sympify(DEFAULTS["B"] if B is None else B)
-    C = sp.sympify(DEFAULTS["C"] if C is None else C)
+    A = real_param("A", DEFAULTS["A"] if A is None else A)
+    B = real_param("B", DEFAULTS["B"] if B is None else B)
+    C = real_param("C", DEFAULTS["C"] if C is None else C)
     for k, v in (("A", A), ("B", B), ("C", C)):
         if v.free_symbols or not v.is_real:
             raise ValueError(f"ABC parameter {k} must be a real number; got {v}")

@@ -18,7 +18,7 @@ import numpy as np
 import sympy as sp
 
 from ..fields import SYMBOLS, Field
-from ._base import Problem, invariant_callables
+from ._base import Problem, invariant_callables, real_param
 
 __all__ = ["make", "default", "DEFAULTS"]
 
@@ -33,7 +33,7 @@ def exprs(I1, I2, I3, symbols=SYMBOLS):
 
 def make(I1=None, I2=None, I3=None) -> Problem:
     """The free rigid body with principal moments I1, I2, I3 (defaults 2, 1, 2/3)."""
-    I = [sp.sympify(DEFAULTS[k] if v is None else v) for k, v in zip(("I1", "I2", "I3"), (I1, I2, I3))]
+    I = [real_param(k, DEFAULTS[k] if v is None else v) for k, v in zip(("I1", "I2", "I3"), (I1, I2, I3))]
     for k, v in zip(("I1", "I2", "I3"), I):
         if v.free_symbols or not (v > 0):
             raise ValueError(f"moment of inertia {k} must be a positive number; got {v}")

@@ -23,7 +23,7 @@ import numpy as np
 import sympy as sp
 
 from ..fields import SYMBOLS, Field
-from ._base import Problem, invariant_callables
+from ._base import Problem, invariant_callables, real_param
 
 __all__ = ["make", "default", "DEFAULTS"]
 
@@ -45,8 +45,8 @@ def exprs(Omega, eps, symbols=SYMBOLS):
 
 def make(Omega=None, eps=None) -> Problem:
     """The flow with swirl Ω and symmetry-breaking rotation ε (defaults Ω = 1, ε = 1/10)."""
-    Omega = sp.sympify(DEFAULTS["Omega"] if Omega is None else Omega)
-    eps = sp.sympify(DEFAULTS["eps"] if eps is None else eps)
+    Omega = real_param("Omega", DEFAULTS["Omega"] if Omega is None else Omega)
+    eps = real_param("eps", DEFAULTS["eps"] if eps is None else eps)
     for k, v in (("Omega", Omega), ("eps", eps)):
         if v.free_symbols or not v.is_real:
             raise ValueError(f"parameter {k} must be a real number; got {v}")

@@ -37,7 +37,7 @@ import numpy as np
 import sympy as sp
 
 from ..fields import SYMBOLS, Field
-from ._base import Problem, invariant_callables
+from ._base import Problem, invariant_callables, real_param
 
 __all__ = ["make", "default", "DEFAULTS", "flux_function"]
 
@@ -76,7 +76,7 @@ def make(R0=None, B0=None, eps=None, m=None, n=None) -> Problem:
     """The field-line model; see the module docstring for the parameters."""
     p = dict(DEFAULTS)
     p.update({k: v for k, v in dict(R0=R0, B0=B0, eps=eps, m=m, n=n).items() if v is not None})
-    R0, B0, eps = (sp.sympify(p[k]) for k in ("R0", "B0", "eps"))
+    R0, B0, eps = (real_param(k, p[k]) for k in ("R0", "B0", "eps"))
     m, n = p["m"], p["n"]
     if not (isinstance(m, (int, np.integer)) and isinstance(n, (int, np.integer)) and m >= 1 and n >= 0):
         raise ValueError(f"mode numbers must be integers m ≥ 1, n ≥ 0; got m={m!r}, n={n!r}")

@@ -1,0 +1,246 @@
+"""Recovery of failing steps (issue #12): a method that, where its bare step fails, takes the
+step with a fixed list of volume-preserving alternatives instead of freezing the particle.
+
+Recovery order (first success wins; every alternative is itself a VP map, so the step taken is
+volume preserving):
+
+1. the other cases of the same class (the 36-case order of :func:`vpforms.cases`);
+2. the representatives of the other classes (S1, S2, SE+SE, DL+DL, SE+DL order);
+3. 2, 4, …, 2^k sub-steps of size h/2^j of the bare method (k = ``recover_substeps``, default 6).
+
+Only then does the step report the bare failure (``integrate`` freezes the particle).
+
+Cost: the decision is made once per BATCH. ``_batched_step`` runs the bare step on all points
+(vmap), then ``lax.cond(any(status != 0), recover, identity)`` with an unbatched predicate: when
+no step fails nothing else runs. Inside ``recover`` the failing points are gathered into buffers
+of K points (``jnp.nonzero(size=K)``, a ``lax.while_loop`` while some remain), the alternatives
+are tried in order on the buffer (each behind its own unbatched cond) and the results scattered
+back. A point's result depends only on that point: chunk-independent and deterministic.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+from jax import lax
+
+from .._errors import RECOVERY, RESULTS
+from ._base import Method, merge_status
+
+__all__ = ["Recovering", "SubstepLadder"]
+
+#: points recovered per buffer pass
+_BUFFER = 32
+
+
+def _checked(X, st):
+    # a non-finite result reported as success is a failure (never NaN)
+    bad = ~jnp.all(jnp.isfinite(X), axis=-1)
+    return jnp.where((st == RESULTS.successful) & bad, RESULTS.nonfinite, st).astype(jnp.int32)
+
+
+class SubstepLadder(Method):
+    """Ψ_{h/m}^m for m = 2, 4, …, 2^k: the first m whose sub-steps all succeed wins.
+
+    Each rung is a composition of VP maps of the bare method, so the step taken is VP.  The rung
+    index is a traced loop variable: the bare step is compiled ONCE for the whole ladder (not once
+    per m), which keeps a recovering scheme's compilation close to the bare one's.
+    """
+
+    def __init__(self, base: Method, k: int):
+        self.base, self.k = base, int(k)
+        self.case, self.field = base.case, base.field
+        self.order, self.symmetric = base.order, base.symmetric
+        self.name = f"{base.name}^(2..2^{self.k})"
+
+    def adjoint(self) -> Method:
+        return SubstepLadder(self.base.adjoint(), self.k)
+
+    def without_recovery(self) -> Method:
+        bare = self.base.without_recovery()
+        return self if bare is self.base else SubstepLadder(bare, self.k)
+
+    @staticmethod
+    def _rung(fn, x, h, j, merge):
+        """m = 2^j sub-steps of size h/m of ``fn`` (a traced trip count)."""
+        m = jnp.left_shift(jnp.int32(1), j)
+
+        def body(_, c):
+            x, st, n = c
+            X, s, k = fn(x, h / m)
+            return X, merge(st, s), n + k
+
+        z = jnp.zeros(x.shape[:-1], jnp.int32)
+        return lax.fori_loop(0, m, body, (x, z, z))
+
+    def _ladder(self, fn, x, h, merge):
+        """Rungs j = 1…k while some point is still failing; (X, status, iterations)."""
+        z = jnp.zeros(x.shape[:-1], jnp.int32)
+        init = (jnp.int32(0), x, z + RESULTS.not_converged, z)
+
+        def cond(c):
+            return (c[0] < self.k) & jnp.any(c[2] != RESULTS.successful)
+
+        def body(c):
+            j, X, st, it = c
+            Xj, sj, ij = self._rung(fn, x, h, j + 1, merge)
+            sj = _checked(Xj, sj)
+            pending = st != RESULTS.successful
+            X = jnp.where((pending & (sj == RESULTS.successful))[..., None], Xj, X)
+            return j + 1, X, jnp.where(pending, sj, st), it + jnp.where(pending, ij, 0)
+
+        return lax.while_loop(cond, body, init)[1:]
+
+    def _forward(self, x, h):
+        return self._ladder(self.base._forward, x, h, merge_status)
+
+    def _backward(self, X, h):
+        return self._ladder(self.base._backward, X, h, merge_status)
+
+    def _batched_step(self, x, h):
+        X, st, it = self._ladder(lambda p, h: self.base._batched_step(p, h)[:3], x, h,
+                                 jax.vmap(merge_status))
+        return X, st, it, jnp.zeros(st.shape, jnp.int32)
+
+
+class Recovering(Method):
+    """``bare`` with recovery: ``alternatives`` is a tuple of (method, RECOVERY code) tried in
+    order where the bare step fails (see the module docstring)."""
+
+    def __init__(self, bare: Method, alternatives, buffer: int = _BUFFER):
+        self.bare = bare
+        self.alternatives = tuple(alternatives)
+        self.buffer = int(buffer)
+        self.case, self.field = bare.case, bare.field
+        self.order, self.symmetric = bare.order, bare.symmetric
+        self.name = bare.name
+        self.guess_is_solution = getattr(bare, "guess_is_solution", False)
+
+    def __getattr__(self, item):  # traits of the bare method (theta, printed, …)
+        if item == "bare" or item.startswith("_"):  # never the bare jit caches
+            raise AttributeError(item)
+        return getattr(self.__dict__["bare"], item)
+
+    def without_recovery(self) -> Method:
+        return self.bare.without_recovery()
+
+    def adjoint(self) -> Method:
+        return Recovering(self.bare.adjoint(), [(a.adjoint(), c) for a, c in self.alternatives],
+                          self.buffer)
+
+    def generating_map(self, h, x=None):
+        return self.bare.generating_map(h, x)
+
+    # per-point (jacobian, inverse, use inside a user's vmap): the same choice, by a cond chain
+    def _chain(self, kernel, x, h):
+        X, st, it = kernel(self.bare, x, h)
+        st = _checked(X, st)
+        rec = jnp.int32(0)
+        for alt, code in self.alternatives:
+            def take(c, alt=alt, code=code):
+                X, st, it, rec = c
+                Xa, sa, ia = kernel(alt, x, h)
+                sa = _checked(Xa, sa)
+                ok = sa == RESULTS.successful
+                return (jnp.where(ok, Xa, X), jnp.where(ok, sa, st), it + ia,
+                        jnp.where(ok, jnp.int32(code), rec))
+
+            X, st, it, rec = lax.cond(st != RESULTS.successful, take, lambda c: c, (X, st, it, rec))
+        return X, st, it, rec
+
+    def _forward(self, x, h):
+        return self._chain(lambda m, p, h: m._forward(p, h), x, h)[:3]
+
+    def _backward(self, X, h):
+        return self._chain(lambda m, p, h: m._backward(p, h), X, h)[:3]
+
+    def _recover_buffer(self, xb, valid, h):
+        """Alternatives in order on a buffer of K failing points (``valid`` marks real ones)."""
+        K = xb.shape[0]
+        init = (xb, jnp.full(K, RESULTS.not_converged, jnp.int32), jnp.zeros(K, jnp.int32),
+                jnp.zeros(K, jnp.int32))
+        c = init
+        for alt, code in self.alternatives:
+            def take(c, alt=alt, code=code):
+                X, st, it, rec = c
+                Xa, sa, ia, _ = alt._batched_step(xb, h)
+                sa = _checked(Xa, sa)
+                ok = (st != RESULTS.successful) & (sa == RESULTS.successful)
+                return (jnp.where(ok[:, None], Xa, X), jnp.where(ok, sa, st), it + ia,
+                        jnp.where(ok, jnp.int32(code), rec))
+
+            pending = jnp.any(valid & (c[1] != RESULTS.successful))
+            c = lax.cond(pending, take, lambda c: c, c)
+        return c
+
+    def _batched_step(self, x, h):
+        X, st, it, _ = self.bare._batched_step(x, h)
+        st = _checked(X, st)
+        rec = jnp.zeros(st.shape, jnp.int32)
+        N = x.shape[0]
+        K = min(self.buffer, N)
+
+        def recover(c):
+            def cond(c):
+                return jnp.any(c[4])
+
+            def body(c):
+                X, st, it, rec, todo = c
+                (idx,) = jnp.nonzero(todo, size=K, fill_value=N)
+                valid = idx < N
+                xb = jnp.take(x, idx, axis=0, mode="clip")
+                Xb, sb, ib, rb = self._recover_buffer(xb, valid, h)
+                won = sb == RESULTS.successful
+                idx_w = jnp.where(won, idx, N)  # only recovered points are written back
+                X = X.at[idx_w].set(Xb, mode="drop")
+                st = st.at[idx_w].set(sb, mode="drop")
+                rec = rec.at[idx_w].set(rb, mode="drop")
+                it = it.at[idx].add(ib, mode="drop")
+                todo = todo.at[idx].set(False, mode="drop")
+                return X, st, it, rec, todo
+
+            return lax.while_loop(cond, body, c + (c[1] != RESULTS.successful,))[:4]
+
+        return lax.cond(jnp.any(st != RESULTS.successful), recover, lambda c: c, (X, st, it, rec))
+
+
+def recovering(field: Any, case, bare: Method, build, substeps: int = 6, classes: bool = True):
+    """``Recovering(bare, …)`` with the alternatives of the module docstring; ``build(case_or_cls)``
+    makes a bare method (None where the recipe does not apply to the field)."""
+    from .._case import CLASSES, cases
+
+    alts = []
+    for c in cases():
+        if c.cls == case.cls and c != case:
+            m = build(c)
+            if m is not None:
+                alts.append((m, RECOVERY.other_case))
+    if classes:
+        for k in CLASSES:
+            if k != case.cls:
+                m = build(k)
+                if m is not None:
+                    alts.append((m, RECOVERY.other_class))
+    if int(substeps) > 0:
+        alts.append((SubstepLadder(bare, substeps), RECOVERY.substeps))
+    return Recovering(bare, alts)
+
+
+def recovering_scheme(scheme, field, case, options, substeps, classes):
+    """``scheme(field, case, recover=True, **options)``: the bare scheme wrapped in recovery."""
+    from .._errors import VPFormsError
+
+    bare = scheme(field, case, recover=False, **options)
+    newton = {"newton": options["newton"]} if "newton" in options else {}
+
+    def build(c):
+        try:
+            if isinstance(c, str):  # another class: its representative, class options dropped
+                return scheme(field, c, recover=False, **newton)
+            return scheme(field, c, recover=False, **options)
+        except (VPFormsError, ValueError):
+            return None
+
+    return recovering(field, bare.case, bare, build, substeps=substeps, classes=classes)

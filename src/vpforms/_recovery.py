@@ -1,0 +1,121 @@
+"""Host-side, lazy recovery of failed steps (issue #12), shared by every backend.
+
+A backend advances the BARE method (``method.without_recovery()``): the recovering step is only
+compiled and run where a bare step failed.  :func:`recover_points` takes those points (each at the
+state before its failed step) and returns the recovering method's step there: the same
+alternatives, in the same order, as ``method.step_with_recovery`` (``_methods/recover.py``), so a
+run recovers exactly the steps that ``method.step`` would.  The backend then continues those
+particles from the recovered state with the bare step.
+
+Why lazy: a recovering step compiles every alternative (≈ 10 generating maps); when no step fails
+— the common case — a run should cost (and compile) what the bare run does.  A point's result
+depends on that point only, so the output does not depend on chunking or on which other points
+failed.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ._errors import RECOVERY, RESULTS
+
+__all__ = ["bare_method", "recover_points", "count_how"]
+
+#: points per call of the recovering step (one compilation per method)
+_BUFFER = 32
+
+
+def bare_method(method: Any) -> Any:
+    """The method with recovery stripped, or ``method`` itself (a user method, a bare one)."""
+    strip = getattr(method, "without_recovery", None)
+    return method if strip is None else strip()
+
+
+def _padded(fn, x: np.ndarray, h: float):
+    """fn(block (B, 3), h) -> arrays (B, …) on x (M, 3) in blocks of B = _BUFFER (one shape)."""
+    M = x.shape[0]
+    outs = []
+    for lo in range(0, M, _BUFFER):
+        hi = min(lo + _BUFFER, M)
+        block = x[lo:hi]
+        if hi - lo < _BUFFER:  # pad with copies of a real point: one compiled shape
+            block = np.concatenate([block, np.repeat(block[:1], _BUFFER - (hi - lo), axis=0)])
+        outs.append([np.asarray(o)[: hi - lo] for o in fn(block, h)])
+    return [np.concatenate(parts) for parts in zip(*outs)]
+
+
+def _checked(X: np.ndarray, st: np.ndarray) -> np.ndarray:
+    st = np.broadcast_to(np.asarray(st, np.int32), X.shape[:1])
+    bad = ~np.all(np.isfinite(X), axis=1)
+    return np.where((st == RESULTS.successful) & bad, RESULTS.nonfinite, st).astype(np.int32)
+
+
+def _host_step(method: Any, x: np.ndarray, h: float, bare_failed: bool = False):
+    """(X, status, how) of the recovering ``method`` at x (M, 3), alternative by alternative.
+
+    A :class:`Recovering` step runs its bare step, then each alternative on the points still
+    failing, in order, stopping as soon as none fails: an alternative is compiled only when a
+    point needs it.  Compositions recover stage by stage (each stage its own recovery, as in
+    their ``_batched_step``); ``how`` is then the largest code of the stages.  ``bare_failed``:
+    the caller already knows the bare step failed at every point (skip it).
+    """
+    from ._methods.compose import Composition, SymmetricPair
+    from ._methods.recover import Recovering
+
+    if isinstance(method, Recovering):
+        if bare_failed:
+            X, st = x.copy(), np.full(x.shape[0], RESULTS.not_converged, np.int32)
+        else:
+            X, st = _padded(method.bare.step_with_status, x, h)
+            st = _checked(X, st)
+        how = np.zeros(x.shape[0], np.int32)
+        for alt, code in method.alternatives:
+            pend = np.flatnonzero(st != RESULTS.successful)
+            if pend.size == 0:
+                break
+            Xa, sa = _padded(alt.step_with_status, x[pend], h)
+            sa = _checked(Xa, sa)
+            ok = sa == RESULTS.successful
+            X[pend[ok]], how[pend[ok]] = Xa[ok], code
+            st[pend] = sa
+        return X, st, how
+    if isinstance(method, SymmetricPair):  # Ψ*_{h/2} ∘ Ψ_{h/2}
+        y, s1, r1 = _host_step(method.base, x, h / 2)
+        X, s2, r2 = _host_step(method.adj, y, h / 2)
+        return X, np.where(s1 != RESULTS.successful, s1, s2), np.maximum(r1, r2)
+    if isinstance(method, Composition):  # S_{γ_s h} ∘ … ∘ S_{γ_1 h}
+        X, st, how = x, np.zeros(x.shape[0], np.int32), np.zeros(x.shape[0], np.int32)
+        for g in method.gammas:
+            X, s, r = _host_step(method.base, X, g * h)
+            st, how = np.where(st != RESULTS.successful, st, s), np.maximum(how, r)
+        return X, st, how
+    if bare_method(method) is method:  # a bare (part of a) method: no recovery
+        X, st = _padded(method.step_with_status, x, h)
+        return X, _checked(X, st), np.zeros(x.shape[0], np.int32)
+    X, st, how = _padded(method.step_with_recovery, x, h)  # another recovering method: in one jit
+    return X, _checked(X, st), np.asarray(how, np.int32)
+
+
+def recover_points(method: Any, x: np.ndarray, h: float):
+    """The recovering step at points x (M, 3) whose bare step failed: (X, status, how), numpy.
+
+    ``status`` is 0 where the step was recovered (``how`` is then the :class:`RECOVERY` code of
+    the alternative taken, the largest over the stages of a composition); elsewhere the failure
+    code, and X must not be used.  The same alternatives in the same order as
+    ``method.step_with_recovery``, but each compiled only when some point needs it.
+    """
+    x = np.asarray(x, dtype=np.float64).reshape(-1, 3)
+    X, st, how = _host_step(method, x, float(h), bare_failed=True)
+    return X, st, np.where(st == RESULTS.successful, how, RECOVERY.none).astype(np.int32)
+
+
+def count_how(how: np.ndarray, into: dict[str, int] | None = None) -> dict[str, int]:
+    """Add the recovered steps of ``how`` (RECOVERY codes, 0 = not recovered) by message."""
+    out = {} if into is None else into
+    for code in np.unique(how):
+        if code != RECOVERY.none:
+            name = RECOVERY.messages[int(code)]
+            out[name] = out.get(name, 0) + int(np.count_nonzero(how == code))
+    return out

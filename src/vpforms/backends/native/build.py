@@ -1,0 +1,116 @@
+"""Compile generated C once and cache the shared object (cffi + the system C compiler).
+
+The cache lives in ``platformdirs.user_cache_dir("vpforms")/native`` (override with the
+environment variable ``VPFORMS_NATIVE_CACHE``), keyed by a hash of source + flags + compiler
+version; a build writes into a private temporary directory and is published by ``os.replace``
+(atomic on POSIX), so concurrent processes never see a half-written object.
+``VPFORMS_NATIVE_DISABLE=1`` makes :func:`available` report no compiler (tests, debugging).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.machinery
+import importlib.util
+import os
+import shutil
+import subprocess
+import sysconfig
+import tempfile
+from functools import lru_cache
+from pathlib import Path
+
+__all__ = ["FLAGS", "available", "build", "cache_dir", "compiler", "COUNTERS"]
+
+#: -ffast-math lets gcc call libmvec's vector sin/cos; -fno-finite-math-only keeps NaN/inf tests
+#: working; -fdisable-tree-sincos stops the sin+cos → sincos fusion that has no vector variant.
+FLAGS = ("-O3", "-march=native", "-ffast-math", "-fno-finite-math-only",
+         "-fdisable-tree-sincos", "-fopenmp")
+#: How many compilations / cache hits this process did (tests read it).
+COUNTERS = {"compiled": 0, "cache_hits": 0}
+
+_loaded: dict[str, object] = {}
+
+
+def cache_dir() -> Path:
+    env = os.environ.get("VPFORMS_NATIVE_CACHE")
+    if env:
+        return Path(env)
+    import platformdirs
+
+    return Path(platformdirs.user_cache_dir("vpforms")) / "native"
+
+
+def compiler() -> str | None:
+    """The C compiler's path (``$CC`` or sysconfig's CC, else gcc/cc), or None."""
+    if os.environ.get("VPFORMS_NATIVE_DISABLE", "") not in ("", "0"):
+        return None
+    for cand in (os.environ.get("CC"), (sysconfig.get_config_var("CC") or "").split(" ")[0], "gcc", "cc"):
+        if cand and shutil.which(cand):
+            return shutil.which(cand)
+    return None
+
+
+@lru_cache(maxsize=8)
+def _version(cc: str) -> str:
+    try:
+        return subprocess.run([cc, "--version"], capture_output=True, text=True, timeout=30).stdout
+    except (OSError, subprocess.SubprocessError):
+        return ""
+
+
+def available() -> tuple[bool, str]:
+    """(True, compiler description) if native kernels can be built here, else (False, why)."""
+    cc = compiler()
+    if cc is None:
+        return False, "no C compiler found: install gcc"
+    try:
+        import cffi  # noqa: F401
+    except ImportError:
+        return False, "the native backend needs cffi: pip install cffi"
+    v = _version(cc).splitlines()
+    return True, v[0] if v else cc
+
+
+def build(source: str, cdef: str):
+    """The cffi ``lib`` of ``source`` (declarations ``cdef``), compiled once and cached."""
+    cc = compiler()
+    if cc is None:
+        raise OSError("no C compiler found: install gcc")
+    key = hashlib.sha256("\0".join([source, cdef, " ".join(FLAGS), _version(cc)]).encode()).hexdigest()[:20]
+    if key in _loaded:
+        return _loaded[key]
+    name = f"_vpk_{key}"
+    suffix = importlib.machinery.EXTENSION_SUFFIXES[0]
+    d = cache_dir()
+    d.mkdir(parents=True, exist_ok=True)
+    so = d / (name + suffix)
+    if so.exists():
+        COUNTERS["cache_hits"] += 1
+    else:
+        import cffi
+
+        ffi = cffi.FFI()
+        ffi.cdef(cdef)
+        ffi.set_source(name, source, extra_compile_args=[*FLAGS, "-w"], extra_link_args=["-fopenmp"],
+                       libraries=["m"])
+        tmp = tempfile.mkdtemp(prefix=name + ".", dir=d)
+        try:
+            env_cc = os.environ.get("CC")
+            os.environ["CC"] = cc
+            try:
+                out = ffi.compile(tmpdir=tmp, verbose=False)
+            finally:
+                if env_cc is None:
+                    os.environ.pop("CC", None)
+                else:
+                    os.environ["CC"] = env_cc
+            os.replace(out, so)  # atomic publish: readers see the old state or the whole file
+            COUNTERS["compiled"] += 1
+        finally:
+            shutil.rmtree(tmp, ignore_errors=True)
+    spec = importlib.util.spec_from_file_location(name, so)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    _loaded[key] = mod
+    return mod

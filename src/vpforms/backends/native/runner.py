@@ -1,0 +1,150 @@
+"""Run a generated native kernel: save blocks, freezing, JAX recovery of failed steps, Solution.
+
+:func:`run_points` is the low-level entry (no argument checks: a NaN initial condition gives the
+``nonfinite`` status); :func:`integrate_native` is what :func:`vpforms.integrate` dispatches to.
+
+Recovery (same as the JAX path): the kernel is built for ``method.without_recovery()``; when a
+particle's native step fails it stops at that step, and for a recovering method that one step is
+taken by :func:`vpforms._recovery.recover_points` (the JAX recovering step, exactly as the JAX
+backend does); on success the particle goes on natively from the next step (``recovered`` counts
+these steps); otherwise, and always for a bare method, it stays frozen with the bare status.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import numpy as np
+
+from ..._errors import RESULTS
+from ..._recovery import bare_method, count_how, recover_points
+from .build import build
+from .codegen import CDEF, kernel_source
+
+__all__ = ["NativeKernel", "run_points", "integrate_native"]
+
+
+class NativeKernel:
+    """The compiled ``vp_run`` of one method (built on first use, cached on disk)."""
+
+    def __init__(self, method: Any, engine: str = "auto"):
+        self.method = method
+        self.source = kernel_source(method, engine)
+        self.lib = build(self.source, CDEF)
+        from cffi import FFI
+
+        self._ffi = FFI()
+
+    def advance(self, x: np.ndarray, status: np.ndarray, n: np.ndarray, n_target: int, h: float):
+        """In place: every live particle with n < n_target steps until n_target or its failure."""
+        f = self._ffi
+        self.lib.lib.vp_run(
+            x.shape[0],
+            f.cast("double *", x.ctypes.data),
+            f.cast("int32_t *", status.ctypes.data),
+            f.cast("int64_t *", n.ctypes.data),
+            int(n_target), float(h),
+        )
+
+
+_kernels: dict[tuple[int, str], tuple[Any, NativeKernel]] = {}
+def kernel_for(method: Any, engine: str = "auto") -> NativeKernel:
+    hit = _kernels.get((id(method), engine))
+    if hit is None or hit[0] is not method:
+        hit = (method, NativeKernel(method, engine))
+        _kernels[(id(method), engine)] = hit
+    return hit[1]
+
+
+def _advance_with_recovery(kernel, method, x, status, n, recovered, n_target, h, how):
+    """Advance natively to n_target; recover failed steps lazily as the JAX backend does
+    (:mod:`vpforms._recovery`: the same alternatives, in the same order) and go on natively."""
+    lazy = bare_method(method) is not method
+    while True:
+        before = status.copy()
+        kernel.advance(x, status, n, n_target, h)
+        idx = np.flatnonzero((before == RESULTS.successful) & (status != RESULTS.successful))
+        if idx.size == 0 or not lazy:
+            return
+        X, st, code = recover_points(method, x[idx], h)
+        count_how(code, how)
+        good = st == RESULTS.successful
+        g = idx[good]
+        if g.size == 0:
+            return
+        x[g] = X[good]
+        status[g] = RESULTS.successful
+        n[g] += 1
+        recovered[g] += 1
+
+
+def run_points(method, pts, h, steps, progress_cb=None, engine="auto", save=None, how=None):
+    """Advance points (N, 3) natively and return (xs (N, S, 3), status, failed_step, recovered).
+
+    ``steps`` are the target step indices (increasing, first 0); ``save`` (bool per target,
+    default all) says which are kept in xs — memory is N·S·24 bytes for S saved states.
+    No argument checks.  ``how`` (a dict) collects the recovered steps by kind.
+    """
+    how = {} if how is None else how
+    save = np.ones(len(steps), bool) if save is None else np.asarray(save, bool)
+    kernel = kernel_for(method, engine)
+    N = pts.shape[0]
+    x = np.ascontiguousarray(pts, dtype=np.float64).copy()
+    status = np.zeros(N, dtype=np.int32)
+    n = np.zeros(N, dtype=np.int64)
+    recovered = np.zeros(N, dtype=np.int64)
+    slot = np.cumsum(save) - 1
+    xs = np.empty((N, int(save.sum()), 3))
+    if save[0]:
+        xs[:, 0] = x
+    for j in range(1, len(steps)):
+        _advance_with_recovery(kernel, method, x, status, n, recovered, int(steps[j]), h, how)
+        if save[j]:
+            xs[:, slot[j]] = x
+        if progress_cb is not None:
+            progress_cb(N * int(steps[j] - steps[j - 1]))
+    failed = np.where(status != RESULTS.successful, n, -1)
+    return xs, status, failed, recovered
+
+
+def integrate_native(method, pts, single, h, n_steps, save_every, t0, progress, reason):
+    """The native counterpart of the JAX loop in :func:`vpforms.integrate` (same Solution)."""
+    from ..._integrate import Solution, _Bar, describe
+
+    if save_every is None:
+        steps = np.array([0, n_steps]) if n_steps else np.array([0])
+        # intermediate targets only for the progress bar (≤ 20 calls), not saved
+        targets = np.unique(np.linspace(0, n_steps, min(n_steps, 20) + 1).astype(np.int64))
+    else:
+        k = int(save_every)
+        if k < 1:
+            raise ValueError(f"save_every must be ≥ 1, got {save_every}")
+        n_blocks = -(-n_steps // k)
+        steps = np.minimum(np.arange(n_blocks + 1) * k, n_steps)
+        targets = steps
+    N = pts.shape[0]
+    bar = _Bar(progress, N * n_steps, "integrating (native)")
+    t_wall = time.perf_counter()
+    try:
+        keep = np.isin(targets, steps)
+        how: dict[str, int] = {}
+        xs, status, failed, recovered = run_points(method, pts, h, targets, bar.update, save=keep, how=how)
+    finally:
+        bar.close()
+    wall = time.perf_counter() - t_wall
+    stats = {
+        "wall_s": wall,
+        "chunk_size": N,
+        "n_chunks": 1 if N else 0,
+        "ns_per_particle_step": (1e9 * wall / (N * n_steps)) if N * n_steps else float("nan"),
+        "backend": "native",
+        "backend_reason": reason,
+        **({"recovered_how": how} if how else {}),
+    }
+    ts = t0 + h * steps.astype(np.float64)
+    d = describe(method)
+    if single:
+        return Solution(ts, steps, xs[0], status[0], failed[0], d, h, n_steps, save_every, t0, stats,
+                        recovered[0])
+    return Solution(ts, steps, xs, status, failed, d, h, n_steps, save_every, t0, stats, recovered)

@@ -1,0 +1,126 @@
+"""A vpforms method as a :mod:`diffrax` solver (optional extra ``vpforms[diffrax]``).
+
+::
+
+    import diffrax, vpforms
+    from vpforms.diffrax import VPSolver, field_term
+
+    method = vpforms.compose(vpforms.scheme(vpforms.problems.get("abc").field), order=4)
+    sol = diffrax.diffeqsolve(field_term(method), VPSolver(method), t0=0.0, t1=10.0, dt0=0.1,
+                              y0=jnp.array([0.1, 0.2, 0.3]), saveat=diffrax.SaveAt(ts=ts))
+
+What applies and what does not
+------------------------------
+* **Constant step only.** A step is ``method.step_with_status(y, t1 - t0)`` (so it has the
+  method's step recovery, where the method has one); there is no error estimate
+  (``error_order`` is None), so an adaptive ``stepsize_controller`` (``PIDController``) is refused
+  by diffrax itself with "Cannot use adaptive step sizes with a solver that does not provide error
+  estimates".  Use the default ``ConstantStepSize`` with ``dt0`` (or ``StepTo``).
+* **The term's vector field does not drive the step.**  The method carries its own field (the
+  generating potentials are built from it).  The term is used by diffrax only through
+  :meth:`VPSolver.func` (initial-step heuristics, which a constant step never calls).  Pass
+  :func:`field_term` (``ODETerm`` of ``method.field``) so that the two agree; diffrax refuses a term
+  that is not an ``ODETerm`` (``term_structure``); a different field in the term is NOT detected.
+* **Dense output is linear** (``LocalLinearInterpolation``, like diffrax's ``Euler``): exact at
+  the step times, O(h²) in between.  ``SaveAt(ts=...)`` and ``SaveAt(dense=True)`` use it; so
+  does the root-finding of a ``diffrax.Event``, whose located time is therefore the crossing of
+  the chord, as ``vpforms.diagnostics.poincare_section(..., interpolation="linear")`` computes —
+  not the order-p crossing of its default ``interpolation="step"``.
+* **Failures.** A non-zero vpforms status (twist failure, Newton not converged, non-finite) maps
+  to ``diffrax.RESULTS.nonlinear_divergence`` (non-finite to ``RESULTS.nonfinite``): with
+  ``throw=True`` ``diffeqsolve`` raises, with ``throw=False`` ``sol.result`` says so.
+* **Not applicable:** SDEs / control terms (``term_structure`` is ``ODETerm``), adaptive steps,
+  error estimates, ``made_jump`` (the method has no FSAL state), backward-in-time solves with a
+  method whose field is not reversible are the method's own business (h < 0 is passed through).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any, ClassVar
+
+import equinox as eqx
+import jax.numpy as jnp
+
+from . import _config  # noqa: F401  (float64)
+from ._errors import RESULTS as VP_RESULTS
+
+try:
+    import diffrax as _dfx
+except ImportError as err:  # pragma: no cover - exercised only without the extra
+    raise ImportError("vpforms.diffrax needs diffrax: pip install 'vpforms[diffrax]'") from err
+
+__all__ = ["VPSolver", "field_term", "to_diffrax_result"]
+
+
+def field_term(method: Any) -> "_dfx.ODETerm":
+    """``diffrax.ODETerm`` of the method's own field: ``(t, y, args) -> method.field(y)``."""
+    field = getattr(method, "field", None)
+    if not callable(field):
+        raise TypeError(f"{type(method).__name__} has no callable .field to build a term from")
+    return _dfx.ODETerm(lambda t, y, args: field(y))
+
+
+def to_diffrax_result(status) -> "_dfx.RESULTS":
+    """The diffrax ``RESULTS`` of a vpforms status code (a scalar int32, possibly traced)."""
+    status = jnp.asarray(status, jnp.int32)
+    bad = _dfx.RESULTS.where(status == VP_RESULTS.nonfinite, _dfx.RESULTS.nonfinite,
+                             _dfx.RESULTS.nonlinear_divergence)
+    return _dfx.RESULTS.where(status == VP_RESULTS.successful, _dfx.RESULTS.successful, bad)
+
+
+class VPSolver(_dfx.AbstractSolver):
+    """A vpforms one-step method (anything with ``step_with_status(x, h)``) as a diffrax solver.
+
+    Parameters
+    ----------
+    method:
+        ``vpforms.scheme(...)``, ``vpforms.compose(...)``, :class:`vpforms.RK4` or any object with
+        ``step_with_status(x, h) -> (X, status)`` for x of shape (3,), and an ``order`` attribute.
+
+    Notes
+    -----
+    See the module docstring for what diffrax features apply (constant step, linear dense
+    output, events on the chord) and which do not (adaptive steps, error estimates, SDEs).
+    """
+
+    method: Any = eqx.field(static=True)
+
+    term_structure: ClassVar = _dfx.ODETerm
+    interpolation_cls: ClassVar[Callable[..., _dfx.LocalLinearInterpolation]] = (
+        _dfx.LocalLinearInterpolation
+    )
+
+    def __check_init__(self):
+        if not callable(getattr(self.method, "step_with_status", None)):
+            raise TypeError(
+                f"VPSolver needs a vpforms method with step_with_status(x, h); got {type(self.method).__name__}"
+            )
+
+    def order(self, terms):
+        return int(getattr(self.method, "order", 1))
+
+    def strong_order(self, terms):
+        return None
+
+    def error_order(self, terms):
+        return None  # no embedded error estimate: constant step only
+
+    def init(self, terms, t0, t1, y0, args):
+        # diffrax itself checks the term against term_structure (one ODETerm) before init
+        if jnp.shape(y0) != (3,):
+            raise ValueError(f"VPSolver integrates one point y0 of shape (3,) (vmap for many), "
+                             f"got shape {jnp.shape(y0)}")
+        return None
+
+    def step(self, terms, t0, t1, y0, args, solver_state, made_jump):
+        del terms, args, solver_state, made_jump
+        # Ψ_h(y0) with h = t1 − t0: the method's implicit generating-map step (eq:volpot1–3)
+        y1, status = self.method.step_with_status(y0, t1 - t0)
+        status = jnp.asarray(status, jnp.int32)
+        y1 = jnp.where(status == VP_RESULTS.successful, y1, y0)  # never hand NaN to diffrax
+        dense_info = dict(y0=y0, y1=y1)
+        return y1, None, dense_info, None, to_diffrax_result(status)
+
+    def func(self, terms, t0, y0, args):
+        return terms.vf(t0, y0, args)

@@ -1,0 +1,258 @@
+"""The native backend (issue 9): generated C kernels agree with the JAX methods they are built from.
+
+One tmp cache directory per test session (env ``VPFORMS_NATIVE_CACHE``); each kernel compiles once.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import textwrap
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+import sympy as sp
+
+import vpforms as vp
+import vpforms.problems as P
+from vpforms import RESULTS
+from vpforms.backends import NativeUnavailableError, select_backend
+from vpforms.backends.native import build as nbuild
+from vpforms.backends.native.runner import run_points
+
+_OK, _WHY = vp.native.available()
+# skipped only without a compiler, with the reason shown (CI has gcc)
+pytestmark = pytest.mark.skipif(not _OK, reason=f"native backend unavailable: {_WHY}")
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _cache(tmp_path_factory):
+    d = tmp_path_factory.mktemp("native_cache")
+    old = os.environ.get("VPFORMS_NATIVE_CACHE")
+    os.environ["VPFORMS_NATIVE_CACHE"] = str(d)
+    yield d
+    if old is None:
+        os.environ.pop("VPFORMS_NATIVE_CACHE", None)
+    else:
+        os.environ["VPFORMS_NATIVE_CACHE"] = old
+
+
+@pytest.fixture(scope="module")
+def methods():
+    out = {}
+    for pn in ("abc", "rigid_body"):
+        prob = P.get(pn)
+        b = vp.scheme(prob.field, "SE+SE")
+        out[pn] = (prob, {"RK4": vp.RK4(prob.field), "SE+SE": b, "adjoint": b.adjoint(),
+                          "order 2": vp.compose(b, 2), "order 4": vp.compose(b, 4)})
+    return out
+
+
+@pytest.mark.parametrize("pn", ["abc", "rigid_body"])
+@pytest.mark.parametrize("which", ["RK4", "SE+SE", "adjoint", "order 2", "order 4"])
+def test_native_equals_jax_after_100_steps(methods, pn, which):
+    prob, ms = methods[pn]
+    m = ms[which]
+    assert select_backend(m, "auto")[0] == "native"
+    x0 = prob.x0
+    a = vp.integrate(m, x0, 0.1, 100, save_every=10, backend="native")
+    b = vp.integrate(m, x0, 0.1, 100, save_every=10, backend="jax")
+    assert a.stats["backend"] == "native" and b.stats["backend"] == "jax"
+    assert a.xs.shape == b.xs.shape and np.array_equal(a.steps, b.steps)
+    assert np.all(a.status == 0) and np.all(b.status == 0)
+    assert np.max(np.abs(a.xs - b.xs)) <= 1e-11
+    assert np.all(a.recovered == 0)
+
+
+def _native_step(m, x, h):
+    xs, st, _, _ = run_points(m, np.atleast_2d(x), h, [0, 1])
+    assert np.all(st == 0)
+    return xs[:, 1]
+
+
+@pytest.mark.parametrize("which", ["SE+SE", "order 4"])
+def test_native_step_preserves_volume(methods, which):
+    """det of the central-difference Jacobian of the native step: 1 up to the FD error O(ε²)."""
+    _, ms = methods["abc"]
+    m, h, eps = ms[which], 0.3, 1e-5
+    x = np.array([[0.3, 1.1, 2.2], [4.0, 0.5, 5.5]])
+    cols = []
+    for k in range(3):
+        e = np.zeros(3)
+        e[k] = eps
+        cols.append((_native_step(m, x + e, h) - _native_step(m, x - e, h)) / (2 * eps))
+    J = np.stack(cols, axis=-1)  # (N, 3, 3)
+    det = np.linalg.det(J)
+    assert np.max(np.abs(det - 1.0)) < 1e-8
+    # and it is the JAX Jacobian of the same map
+    Jj = np.stack([np.asarray(jax.jacfwd(lambda p: m.step(p, h))(jnp.asarray(p))) for p in x])
+    assert np.max(np.abs(J - Jj)) < 1e-8
+
+
+def test_nan_initial_condition_gives_nonfinite_status(methods):
+    _, ms = methods["abc"]
+    m = ms["SE+SE"]
+    x0 = np.array([[0.1, 0.2, 0.3], [np.nan, 0.0, 0.0], [1.0, 2.0, 3.0]])
+    xs, st, failed, rec = run_points(m, x0, 0.1, [0, 5, 10])
+    assert list(st) == [RESULTS.successful, RESULTS.nonfinite, RESULTS.successful]
+    assert list(failed) == [-1, 0, -1]
+    good = vp.integrate(m, x0[[0, 2]], 0.1, 10, save_every=5, backend="jax")
+    assert np.max(np.abs(xs[[0, 2]] - good.xs)) <= 1e-12
+    with pytest.raises(ValueError, match="NaN"):  # the front door still rejects it
+        vp.integrate(m, x0, 0.1, 10)
+
+
+# ---- failure, freezing and recovery: a field that overflows at a known step -------------------
+def _overflow_field():
+    x1, x2, x3 = vp.fields.SYMBOLS
+    # a = (1, 0, e^{x1}): x1 = x1(0) + t, and RK4's x3 update overflows once x1 ≈ log(DBL_MAX) − h
+    return vp.Field.from_sympy((sp.Integer(1), sp.Integer(0), sp.exp(x1)), name="overflow")
+
+
+class _Fake:
+    """A method whose bare (native) step overflows near x1 ≈ 709 and whose recovering step succeeds."""
+
+    def __init__(self, recover: bool):
+        self.bare = vp.RK4(_overflow_field())
+        self.name = "fake-recovering"
+        if recover:
+            self.step_with_recovery = self._recover
+
+    def without_recovery(self):
+        return self.bare
+
+    def step_with_status(self, x, h):
+        return self.bare.step_with_status(x, h)
+
+    def _recover(self, x, h):  # a finite step that only moves x1 (the exact x1 flow)
+        return x + jnp.array([h, 0.0, 0.0]), jnp.int32(0), jnp.int32(1)
+
+
+def test_failed_native_step_is_recovered_through_jax():
+    m = _Fake(recover=True)
+    x0 = np.array([[700.0, 0.0, 0.0], [0.0, 0.0, 0.0]])
+    sol = vp.integrate(m, x0, 1.0, 15, save_every=1, backend="native")
+    # the bare step first fails at step n_fail (JAX says where); from there on every step of
+    # particle 0 is recovered, each one through the JAX recovering step
+    n_fail = int(vp.integrate(m.bare, x0, 1.0, 15, backend="jax").failed_step[0])
+    assert 0 < n_fail < 15
+    assert list(sol.status) == [0, 0]
+    assert list(sol.recovered) == [15 - n_fail, 0]
+    assert sol.xs[0, -1, 0] == 715.0 and np.all(np.isfinite(sol.xs))
+    # the fake reports RECOVERY code 1 for each of them
+    assert sol.stats["recovered_how"] == {vp.RECOVERY.messages[1]: 15 - n_fail}
+
+
+def test_failed_native_step_without_recovery_is_frozen():
+    m = _Fake(recover=False)
+    x0 = np.array([[700.0, 0.0, 0.0], [0.0, 0.0, 0.0]])
+    sol = vp.integrate(m, x0, 1.0, 15, save_every=1, backend="native")
+    ref = vp.integrate(m, x0, 1.0, 15, save_every=1, backend="jax")
+    assert list(sol.status) == [RESULTS.nonfinite, 0] == list(ref.status)
+    n_fail = int(ref.failed_step[0])
+    assert list(sol.failed_step) == [n_fail, -1] and 0 < n_fail < 15
+    assert np.all(np.isfinite(sol.xs))  # frozen, never NaN
+    assert np.all(sol.xs[0, n_fail + 1 :] == sol.xs[0, n_fail])
+    assert np.max(np.abs(sol.xs - ref.xs) / (1 + np.abs(ref.xs))) < 1e-12
+
+
+# ---- selection, no compiler, unsupported methods ----------------------------------------------
+def test_no_compiler_gives_clear_error_or_jax_fallback(methods, monkeypatch):
+    prob, ms = methods["abc"]
+    monkeypatch.setenv("VPFORMS_NATIVE_DISABLE", "1")
+    ok, why = vp.native.available()
+    assert not ok and "no C compiler found" in why
+    with pytest.raises(NativeUnavailableError, match="install gcc"):
+        vp.integrate(ms["SE+SE"], prob.x0, 0.1, 3, backend="native")
+    sol = vp.integrate(ms["SE+SE"], prob.x0, 0.1, 3, backend="auto")
+    assert sol.stats["backend"] == "jax" and "no C compiler" in sol.stats["backend_reason"]
+
+
+def test_unsupported_methods_fall_back_or_raise():
+    f = P.get("abc").field
+    g = vp.Field.from_callable(f, name="abc-callable") if hasattr(vp.Field, "from_callable") else None
+    if g is not None:
+        name, why = select_backend(vp.RK4(g), "auto")
+        assert name == "jax" and "Field.from_sympy" in why
+    m = vp.scheme(f, "DL+DL")
+    assert select_backend(m, "auto")[0] == "jax"
+    with pytest.raises(NativeUnavailableError, match="not generated natively"):
+        select_backend(m, "native")
+    with pytest.raises(ValueError, match="backend must be"):
+        select_backend(m, "cuda")
+
+
+# ---- the cache ---------------------------------------------------------------------------------
+def test_second_build_is_a_cache_hit(methods):
+    from vpforms.backends.native.codegen import CDEF, kernel_source
+
+    src = kernel_source(methods["abc"][1]["SE+SE"])
+    nbuild.build(src, CDEF)  # compiled (or already cached) once
+    nbuild._loaded.clear()  # forget the loaded module: a new process would start like this
+    before = dict(nbuild.COUNTERS)
+    lib = nbuild.build(src, CDEF)
+    assert nbuild.COUNTERS["compiled"] == before["compiled"]
+    assert nbuild.COUNTERS["cache_hits"] == before["cache_hits"] + 1
+    assert hasattr(lib.lib, "vp_run")
+
+
+def test_concurrent_builds_do_not_corrupt_the_cache(tmp_path):
+    code = textwrap.dedent(f"""
+        import os, sys
+        sys.path.insert(0, {os.path.dirname(os.path.dirname(vp.__file__))!r})
+        from vpforms.backends.native import build
+        lib = build.build("int vp_twice(int a) {{ return 2 * a; }} /* concurrency */", "int vp_twice(int a);")
+        assert lib.lib.vp_twice(21) == 42
+        print("ok")
+    """)
+    env = {**os.environ, "VPFORMS_NATIVE_CACHE": str(tmp_path)}
+    procs = [subprocess.Popen([sys.executable, "-c", code], env=env, stdout=subprocess.PIPE,
+                              stderr=subprocess.PIPE, text=True) for _ in range(3)]
+    outs = [p.communicate(timeout=120) for p in procs]
+    assert all(p.returncode == 0 for p in procs), outs
+    files = sorted(os.listdir(tmp_path))
+    assert len(files) == 1 and files[0].endswith(".so"), files  # one object, no temporary left
+
+
+# ---- CLI ----------------------------------------------------------------------------------------
+def test_cli_run_says_which_backend_ran(tmp_path, capsys):
+    from vpforms.cli import main
+
+    out = tmp_path / "r.npz"
+    assert main(["run", "--steps", "5", "--particles", "3", "--backend", "native", "--out", str(out)]) == 0
+    assert "native" in capsys.readouterr().out
+    assert main(["run", "--steps", "5", "--method", "DL+DL", "--backend", "native", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("vpforms: error:") and "not generated natively" in err[0]
+
+
+# ---- the generic engine (Newton) ----------------------------------------------------------------
+@pytest.mark.parametrize("pn", ["linear", "lotka_volterra"])
+def test_native_newton_engine_equals_jax(pn):
+    prob = P.get(pn)
+    m = vp.scheme(prob.field, "SE+SE")
+    assert select_backend(m, "native")[0] == "native"
+    a = vp.integrate(m, prob.x0, 0.05, 100, save_every=25, backend="native")
+    b = vp.integrate(m, prob.x0, 0.05, 100, save_every=25, backend="jax")
+    assert np.all(a.status == 0) and np.all(b.status == 0)
+    assert np.max(np.abs(a.xs - b.xs)) <= 1e-11
+
+
+def test_newton_failure_is_frozen_with_its_status():
+    prob = P.get("lotka_volterra")
+    m = vp.scheme(prob.field, "SE+SE", newton={"max_iter": 1})  # one iteration cannot converge
+    a = vp.integrate(m, prob.x0, 0.05, 10, save_every=1, backend="native")
+    b = vp.integrate(m, prob.x0, 0.05, 10, save_every=1, backend="jax")
+    assert np.all(b.status == RESULTS.not_converged)  # the JAX engine fails too (no recovery)
+    assert np.array_equal(a.status, b.status) and np.array_equal(a.failed_step, b.failed_step)
+    assert np.all(np.isfinite(a.xs)) and np.array_equal(a.xs, np.repeat(a.xs[:, :1], 11, axis=1))
+
+
+def test_forced_newton_engine_equals_closed_form_on_abc(methods):
+    prob, ms = methods["abc"]
+    a = run_points(ms["SE+SE"], prob.x0, 0.1, [0, 100], engine="newton")
+    b = run_points(ms["SE+SE"], prob.x0, 0.1, [0, 100])
+    assert np.all(a[1] == 0) and np.max(np.abs(a[0] - b[0])) <= 1e-11
