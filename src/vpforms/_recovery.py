@@ -17,6 +17,7 @@ from __future__ import annotations
 
 from typing import Any
 
+import jax
 import numpy as np
 
 from ._errors import RECOVERY, RESULTS
@@ -92,10 +93,23 @@ def _host_step(method: Any, x: np.ndarray, h: float, bare_failed: bool = False):
             st, how = np.where(st != RESULTS.successful, st, s), np.maximum(how, r)
         return X, st, how
     if bare_method(method) is method:  # a bare (part of a) method: no recovery
-        X, st = _padded(method.step_with_status, x, h)
+        X, st = _padded(_per_batch(method, "step_with_status"), x, h)
         return X, _checked(X, st), np.zeros(x.shape[0], np.int32)
-    X, st, how = _padded(method.step_with_recovery, x, h)  # another recovering method: in one jit
+    if hasattr(method, "_jitted"):  # another vpforms recovering method (e.g. an Adjoint of one)
+        X, st, _, how = _padded(method._jitted(), x, h)  # its whole recovering step in one jit
+    else:  # a user method with step_with_recovery
+        X, st, how = _padded(_per_batch(method, "step_with_recovery"), x, h)
     return X, _checked(X, st), np.asarray(how, np.int32)
+
+
+def _per_batch(method: Any, name: str):
+    """``method.<name>`` on a batch (B, 3): vpforms' own methods take batches; a user method's
+    contract (as in :func:`vpforms.integrate`) is one point (3,), so it is vmapped."""
+    from ._integrate import RK4
+    from ._methods._base import Method
+
+    fn = getattr(method, name)
+    return fn if isinstance(method, (Method, RK4)) else jax.vmap(fn, in_axes=(0, None))
 
 
 def recover_points(method: Any, x: np.ndarray, h: float):

@@ -158,8 +158,9 @@ def method_spec(method: Any) -> dict:
             return {"kind": "rk4", "field": field_spec(method.field), "version": __version__}
         from ._methods._base import Adjoint
 
-        if isinstance(method, Adjoint):
-            return {"kind": "adjoint", "base": method_spec(method.base), "version": __version__}
+        base = method.base if isinstance(method, Adjoint) else getattr(method, "adjoint_of", None)
+        if base is not None:  # an Adjoint, or the adjoint of a recovering method
+            return {"kind": "adjoint", "base": method_spec(base), "version": __version__}
         raise SpecError(
             f"{type(method).__name__} was not built by vpforms.scheme/compose/adjoint: it has no spec "
             "(build it with vpforms.scheme(field, case, **options) to ship it)"

@@ -77,8 +77,10 @@ def run_chunk(spec_text: str, store: str, c: int, lo: int, x0: np.ndarray, h: fl
     if os.path.exists(ck):
         with np.load(ck) as z:
             x, status, failed, n_done = z["x"], z["status"], z["failed"], int(z["n_done"])
+            recovered = z["recovered"]
     else:
         x, status, failed, n_done = x0.copy(), np.zeros(n, np.int32), np.full(n, -1, np.int64), 0
+        recovered = np.zeros(n, np.int64)  # steps recovered per particle (issue #12), as Solution.recovered
     first = None if n_done else x0[:, None, :]  # x0 goes out with the first segment (one write)
     kw = {} if backend is None else {"backend": backend}
     while n_done < n_steps:
@@ -91,6 +93,8 @@ def run_chunk(spec_text: str, store: str, c: int, lo: int, x0: np.ndarray, h: fl
         newly = alive & (sol.status != 0)
         status = np.where(newly, sol.status, status).astype(np.int32)
         failed = np.where(newly, sol.failed_step + n_done, failed).astype(np.int64)
+        if sol.recovered is not None:  # a frozen particle takes no step, so it recovers none
+            recovered = recovered + np.where(alive, sol.recovered, 0).astype(np.int64)
         idx = np.searchsorted(gsteps, n_done + sol.steps[1:])
         if idx.size and np.array_equal(gsteps[idx], n_done + sol.steps[1:]):
             keep = slice(None)
@@ -106,15 +110,15 @@ def run_chunk(spec_text: str, store: str, c: int, lo: int, x0: np.ndarray, h: fl
             if first is not None:
                 out, t_lo, first = np.concatenate([first, out], axis=1) if idx.size else first, 0, None
             _io.write_chunk(store, lo, hi, x=out, t_lo=t_lo,
-                            **({"status": status, "failed": failed} if last else {}))
+                            **({"status": status, "failed": failed, "recovered": recovered} if last else {}))
         elif last:
-            _io.write_chunk(store, lo, hi, status=status, failed=failed)
+            _io.write_chunk(store, lo, hi, status=status, failed=failed, recovered=recovered)
         if n_done < n_steps:  # checkpoint: the state at step n_done (atomic replace)
             tmp = ck + f".{os.getpid()}.tmp.npz"
-            np.savez(tmp, x=x, status=status, failed=failed, n_done=n_done)
+            np.savez(tmp, x=x, status=status, failed=failed, recovered=recovered, n_done=n_done)
             os.replace(tmp, ck)
     if n_steps == 0:
-        _io.write_chunk(store, lo, hi, x=x0[:, None, :], status=status, failed=failed)
+        _io.write_chunk(store, lo, hi, x=x0[:, None, :], status=status, failed=failed, recovered=recovered)
     _io.mark_done(store, c)  # after the data: a half-written chunk is never read as done
     if os.path.exists(ck):
         os.remove(ck)

@@ -5,7 +5,9 @@ an xarray Dataset with
 
 * ``x(particle, time, coord)`` — saved states (float64), ``time`` = t0 + h·step, ``coord`` = 1..3;
 * ``step(time)`` — saved step indices; ``status(particle)`` (``vpforms.RESULTS`` codes) and
-  ``failed_step(particle)`` (−1 = never failed); ``recovered(particle)`` when the run has one;
+  ``failed_step(particle)`` (−1 = never failed); ``recovered(particle)`` (steps that failed bare
+  and were recovered, ``Solution.recovered``; always present in a store, whose every chunk runs
+  through :func:`vpforms.integrate`);
 * attrs: ``spec`` (the method's JSON spec, or "" when it has none), ``method``, ``h``, ``t0``,
   ``n_steps``, ``save_every`` (−1 = only the first and last state), ``version`` (vpforms).
 
@@ -134,6 +136,8 @@ def create_store(store: str, *, n_particles: int, steps: np.ndarray, ts: np.ndar
                    dimension_names=["particle"])
     g.create_array("failed_step", shape=(N,), chunks=(c,), dtype="i8", fill_value=-1,
                    dimension_names=["particle"])
+    g.create_array("recovered", shape=(N,), chunks=(c,), dtype="i8", fill_value=0,
+                   dimension_names=["particle"])
     t = g.create_array("time", shape=(S,), chunks=(S,), dtype="f8", dimension_names=["time"])
     t[:] = ts
     st = g.create_array("step", shape=(S,), chunks=(S,), dtype="i8", dimension_names=["time"])
@@ -157,7 +161,8 @@ def _group(path: str, mode: str):
         return zarr.open_group(path, mode=mode)
 
 
-def write_chunk(store: str, lo: int, hi: int, *, x=None, t_lo: int = 0, status=None, failed=None) -> None:
+def write_chunk(store: str, lo: int, hi: int, *, x=None, t_lo: int = 0, status=None, failed=None,
+                recovered=None) -> None:
     """Write particles [lo, hi) (x: their saved states from time index ``t_lo``) into the store."""
     g = _group(os.fspath(store), "r+")
     if x is not None:
@@ -166,6 +171,8 @@ def write_chunk(store: str, lo: int, hi: int, *, x=None, t_lo: int = 0, status=N
         g["status"][lo:hi] = status
     if failed is not None:
         g["failed_step"][lo:hi] = failed
+    if recovered is not None:
+        g["recovered"][lo:hi] = recovered
 
 
 def mark_done(store: str, chunk: int) -> None:

@@ -30,6 +30,7 @@ from typing import Any
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from .._case import Case
 from .._errors import RESULTS, VPFormsError, raise_for_status
@@ -129,15 +130,48 @@ class Method(ABC):
             self._jit_cache = fn
         return fn
 
+    def _evaluate(self, x: Any, h: Any):
+        """(X, status, iterations, recovered) of the step at x (3,) or (..., 3).
+
+        A method with recovery (``without_recovery() is not self``) called on concrete arrays runs
+        its BARE step and recovers only the points that failed, on the host
+        (:func:`vpforms._recovery.recover_points`: the same alternatives in the same order), so
+        the alternatives are compiled only when some point needs them.  Under tracing (a user's
+        ``jit``/``vmap``, diffrax) the whole recovering step is one compiled function.  Either way
+        the step taken is the same map; a point that no alternative steps keeps its bare status.
+        """
+        x = as_points(x)
+        h = jnp.asarray(h, dtype=jnp.result_type(float))
+        bare = self.without_recovery()
+        if bare is self or h.ndim or any(isinstance(a, jax.core.Tracer) for a in (x, h)):
+            return self._jitted()(x, h)
+        X, st, it, _ = bare._jitted()(x, h)
+        st = np.asarray(st)
+        st = np.where((st == RESULTS.successful) & ~np.all(np.isfinite(np.asarray(X)), axis=-1),
+                      RESULTS.nonfinite, st).astype(np.int32)  # never NaN marked successful
+        rec = np.zeros(st.shape, np.int32)
+        fail = np.flatnonzero(st.reshape(-1) != RESULTS.successful)
+        if fail.size:
+            from .._recovery import recover_points
+
+            Xr, sr, how = recover_points(self, np.asarray(x).reshape(-1, 3)[fail], float(h))
+            ok = sr == RESULTS.successful
+            Xf, sf, rf = np.array(X).reshape(-1, 3), st.reshape(-1), rec.reshape(-1)
+            Xf[fail[ok]], sf[fail[ok]], rf[fail[ok]] = Xr[ok], RESULTS.successful, how[ok]
+            X = Xf.reshape(np.shape(X))
+        return jnp.asarray(X), jnp.asarray(st), it, jnp.asarray(rec)
+
     def step_with_status(self, x: Any, h: Any, *, return_iterations: bool = False):
-        """(X, status[, iterations]) for x of shape (3,) or (N, 3); jit/vmap-compatible."""
-        X, status, iters, _ = self._jitted()(as_points(x), jnp.asarray(h, dtype=jnp.result_type(float)))
+        """(X, status[, iterations]) for x of shape (3,) or (N, 3); jit/vmap-compatible.
+
+        ``iterations`` counts the scalar Newton iterations of the bare step."""
+        X, status, iters, _ = self._evaluate(x, h)
         return (X, status, iters) if return_iterations else (X, status)
 
     def step_with_recovery(self, x: Any, h: Any):
         """(X, status, recovered) for x of shape (3,) or (N, 3); ``recovered`` is 0 where the bare
         step succeeded, else a :class:`vpforms.RECOVERY` code saying how the step was recovered."""
-        X, status, _, rec = self._jitted()(as_points(x), jnp.asarray(h, dtype=jnp.result_type(float)))
+        X, status, _, rec = self._evaluate(x, h)
         return X, status, rec
 
     def without_recovery(self) -> "Method":
@@ -187,7 +221,15 @@ class Method(ABC):
         return cache[key]
 
     def jacobian(self, x: Any, h: Any) -> jax.Array:
-        """DΨ_h(x) by forward-mode AD (exact implicit-function derivatives), (3,3) or (N,3,3)."""
+        """DΨ_h(x) by forward-mode AD (exact implicit-function derivatives), (3,3) or (N,3,3).
+
+        The Jacobian of the step actually taken: for a method with recovery, where the bare step
+        succeeds at every point (checked eagerly), the bare step's (the recovering step is that
+        map there), else through the recovering step's chain of alternatives."""
+        bare = self.without_recovery()
+        if bare is not self and not any(isinstance(a, jax.core.Tracer) for a in (x, h)):
+            if np.all(np.asarray(bare.step_with_status(x, h)[1]) == RESULTS.successful):
+                return bare.jacobian(x, h)
         fn = self._cached_jit(
             "jacobian",
             lambda: lambda x, h: batched(

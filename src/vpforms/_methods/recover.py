@@ -127,8 +127,10 @@ class Recovering(Method):
         return self.bare.without_recovery()
 
     def adjoint(self) -> Method:
-        return Recovering(self.bare.adjoint(), [(a.adjoint(), c) for a, c in self.alternatives],
-                          self.buffer)
+        out = Recovering(self.bare.adjoint(), [(a.adjoint(), c) for a, c in self.alternatives],
+                         self.buffer)
+        out.adjoint_of = self  # its spec is {"kind": "adjoint", "base": self.spec()}
+        return out
 
     def generating_map(self, h, x=None):
         return self.bare.generating_map(h, x)
