@@ -86,7 +86,7 @@ def to_diffrax_result(status) -> "_dfx.RESULTS":
 class VPSolver(_dfx.AbstractSolver):
     """A vpforms one-step method (anything with ``step_with_status(x, h)``) as a diffrax solver.
 
-    Parameters
+    Attributes
     ----------
     method:
         ``vpforms.scheme(...)``, ``vpforms.compose(...)``, :class:`vpforms.RK4` or any object with
