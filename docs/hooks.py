@@ -44,14 +44,19 @@ _RUNNER = textwrap.dedent(
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     plt.show = lambda *a, **k: None
+    from matplotlib.figure import Figure
     if sys.argv[1] == "script":
-        runpy.run_path(sys.argv[2], run_name="__main__")
+        names = runpy.run_path(sys.argv[2], run_name="__main__")
     else:
-        exec(sys.argv[2], {"__name__": "__main__"})
+        names = {"__name__": "__main__"}
+        exec(sys.argv[2], names)
+    # pyplot's figures, then Figure objects the script holds (vpforms.plots makes those)
+    found = [plt.figure(num) for num in plt.get_fignums()]
+    found += [v for v in names.values() if isinstance(v, Figure) and v not in found]
     figs = []
-    for num in plt.get_fignums():
+    for fig in found:
         buf = io.BytesIO()
-        plt.figure(num).savefig(buf, format="png", dpi=90, bbox_inches="tight")
+        fig.savefig(buf, format="png", dpi=90, bbox_inches="tight")
         figs.append(base64.b64encode(buf.getvalue()).decode())
     cpu = sum(r.ru_utime + r.ru_stime for r in (resource.getrusage(resource.RUSAGE_SELF),
                                                   resource.getrusage(resource.RUSAGE_CHILDREN)))

@@ -14,10 +14,10 @@ R = np.linspace(1.04, 1.32, 12)
 x0 = np.stack([R, np.zeros_like(R), np.zeros_like(R)], axis=1)
 
 # puncture plot: crossings of the half-plane x2 = 0 (x1 > 0) going around the torus
-sec = poincare_section(method, x0, h=0.05, n_steps=3000, axis=1, value=0.0, direction=1,
+sec = poincare_section(method, x0, h=0.1, n_steps=6000, axis=1, value=0.0, direction=1,
                        progress=False)
 keep = sec.points[:, 0] > 0
-print(f"{np.count_nonzero(keep)} punctures of the plane φ = 0 by {len(x0)} field lines to t = 150")
+print(f"{np.count_nonzero(keep)} punctures of the plane φ = 0 by {len(x0)} field lines to t = 600")
 print(f"punctures per field line: {np.bincount(sec.particle[keep], minlength=len(x0)).tolist()}")
 
 fig, ax = plt.subplots(figsize=(5.5, 5.5))
