@@ -185,3 +185,12 @@ def on_page_markdown(markdown, page, config, files, **kwargs):
         raise RuntimeError(f"{page.file.src_uri}: unknown marker vpforms:{what}")
 
     return MARKER.sub(replace, markdown)
+
+
+_ROLE = re.compile(r":(?:py:)?(?:func|class|meth|mod|data|attr|exc|obj|const):<code>(~?)([^<]*)</code>")
+
+
+def on_page_content(html, page, config, files, **kwargs):
+    """Sphinx roles in docstrings (:func:`x`, :class:`~a.b.C`) as plain code (``x``, ``C``)."""
+    return _ROLE.sub(lambda m: f"<code>{m.group(2).rsplit('.', 1)[-1] if m.group(1) else m.group(2)}</code>",
+                     html)

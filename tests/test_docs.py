@@ -77,3 +77,13 @@ def test_mathematics_tables_were_computed(site):
     # the proof column of table36_markdown(prove=True): one ✓ per case, computed by SymPy
     assert page.count("✓") == len(vpforms.cases())
     assert re.search(r"\d+ rows; \d+ disagree with the spec's verdict", page)  # the errata report ran
+
+
+def test_api_reference_has_the_entry_points(site):
+    page = (site / "api" / "vpforms" / "index.html").read_text(encoding="utf-8")
+    # scheme/compose are documented explicitly (griffe resolves vpforms.scheme to the submodule)
+    for name in ("scheme", "compose", "integrate", "GeneratingMap", "Solution", "RK4"):
+        assert re.search(rf'id="vpforms\.[\w.]*\b{name}"', page), f"API reference lacks {name}"
+    text = _text(site / "api" / "diagnostics" / "index.html")
+    assert "poincare_section" in text and ":func:" not in text  # Sphinx roles rendered as code
+
