@@ -150,6 +150,8 @@ class GeneratingMap:
     tol, max_iter, twist_tol:
         Newton controls for the two scalar solves (see :func:`vpforms._newton.newton_scalar`).
 
+    Notes
+    -----
     Evaluation is two sequential scalar Newton solves (volpot1 for X₋, then volpot2 for X∘) and
     one explicit formula (volpot3 for X₊) — never a 3×3 system.
 

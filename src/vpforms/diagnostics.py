@@ -538,6 +538,8 @@ def poincare_section(
           Where a sub-step Ψ_{θh} fails, the chord point is used and flagged in ``fallback``.
         * ``"linear"``: the chord x_n + θ(x_{n+1} − x_n), interpolation order 1 (error O(h²)).
 
+    Notes
+    -----
     The detection runs inside the ``lax.scan`` of the orbit (device memory O(chunk · 256) per
     segment, independent of n_steps); the location runs afterwards, batched over all crossings.
     """

@@ -170,6 +170,8 @@ def s1_potentials(
         Optional explicit subset of :data:`S1_QUISPEL_FIXES` / :data:`S1_AZ_FIXES` to apply
         (overrides ``printed``).
 
+    Notes
+    -----
     Symbols: h, a11..a33, x1, x2, X1 (φ) and x1, X1, X2 (Φ) — see :data:`SYMBOLS`.  Case
     (σ, Σ) = ((3,2,1), (3,2,1)); LM equations x3 = ∂_{x2}φ, ∂_{X1}φ = ∂_{x1}Φ, X3 = −∂_{X2}Φ (eq:S1).
     Needs a13 ≠ 0.  Printed "Δ a13" in eq:S1_AZ (a bare Δ, no t) is read as a missing factor, i.e.
