@@ -60,14 +60,14 @@ def test_traits_are_data_and_docstrings_cite_the_paper(abc):
         ("S2", S2, "eq:S2"),
     ):
         assert label in M.__doc__ or label in __import__(M.__module__, fromlist=["x"]).__doc__
-        m = scheme(lin, cls)
-        assert isinstance(m, M)
+        m = scheme(lin, cls, recover=False)  # the bare class recipe
+        assert isinstance(m, M) and isinstance(scheme(lin, cls).without_recovery(), M)
         assert (m.cls, m.order, m.symmetric) == (cls, 1, False)
         assert isinstance(m.case, Case) and m.case.cls == cls
         c2 = compose(m, order=4)
         assert (c2.order, c2.symmetric, c2.cls) == (4, True, cls)
     assert "t5vp" in QuispelCorrection.__doc__ and "t5vps2" in QuispelCorrection.__doc__
-    assert isinstance(scheme(abc, "S1"), QuispelCorrection)  # nonlinear field: correction map
+    assert isinstance(scheme(abc, "S1", recover=False), QuispelCorrection)  # nonlinear field: correction map
     assert scheme(abc, "DL+SE").cls == "SE+DL"
 
 
@@ -84,5 +84,5 @@ def test_every_step_goes_through_the_engine(abc, monkeypatch):
     x = jnp.asarray([0.6, 0.7, 0.8])
     for c in (Case((3, 2, 1), (1, 2, 3)), Case((1, 2, 3), (3, 1, 2)), Case((2, 1, 3), (3, 2, 1))):
         calls.clear()
-        jax.jit(lambda x: scheme(abc, c)._forward(x, 0.05)[0])(x)
+        jax.jit(lambda x: scheme(abc, c, recover=False)._forward(x, 0.05)[0])(x)
         assert calls and calls[-1] == c  # the map solved is the one of case c itself
