@@ -71,6 +71,7 @@ def _same(ds, ref):
     assert np.array_equal(ds.recovered.values, ref.recovered)  # issue #12: the same recovered steps
 
 
+@pytest.mark.slow
 def test_recovered_steps_survive_chunks_checkpoints_and_workers(cluster_client, dldl, x0, tmp_path):
     """At h = 0.5 bare DL+DL steps fail on ABC and are recovered (issue #12): a chunked,
     checkpointed store run, in process and on the cluster, has the same states, statuses and
