@@ -256,3 +256,121 @@ def test_forced_newton_engine_equals_closed_form_on_abc(methods):
     a = run_points(ms["SE+SE"], prob.x0, 0.1, [0, 100], engine="newton")
     b = run_points(ms["SE+SE"], prob.x0, 0.1, [0, 100])
     assert np.all(a[1] == 0) and np.max(np.abs(a[0] - b[0])) <= 1e-11
+
+
+# ---- every generated case of every class (issue 9, second pass) --------------------------------
+def _rotation():
+    """A skew (hence traceless) linear field with every off-diagonal entry nonzero: bounded orbits,
+    and every S1/S2 case's recipe defined (the relabelled a₁₃, a₁₂ are never 0)."""
+    A = np.array([[0.0, 0.7, -1.1], [-0.7, 0.0, 0.4], [1.1, -0.4, 0.0]])
+    return vp.Field.linear(A, name="rotation")
+
+
+_PROBLEMS = {  # class → the two problems its cases are checked on
+    "SE+SE": ("abc", "lotka_volterra"),
+    "S1": ("rotation", "linear"),
+    "S2": ("rotation", "linear"),
+}
+
+
+def _problem(pn):
+    if pn == "rotation":
+        return _rotation(), np.array([[1.0, 0.0, 0.0], [0.3, -0.5, 0.7]])
+    prob = P.get(pn)
+    return prob.field, prob.x0
+
+
+@pytest.fixture(scope="module")
+def fields():
+    return {pn: _problem(pn) for pns in _PROBLEMS.values() for pn in pns}
+
+
+def _agree(a, b, tol=1e-11):
+    """native == JAX to tol, relative to 1 + |x| (the linear problem grows to |x| ~ 4e2)."""
+    assert a.stats["backend"] == "native" and b.stats["backend"] == "jax"
+    assert np.array_equal(a.status, b.status) and np.array_equal(a.failed_step, b.failed_step)
+    err = np.max(np.abs(a.xs - b.xs) / (1.0 + np.abs(b.xs)))
+    assert err <= tol, err
+
+
+_GENERATED = [(cls, pn, c) for cls, pns in _PROBLEMS.items() for pn in pns
+              for c in vp.cases() if c.cls == cls]
+
+
+@pytest.mark.parametrize("cls, pn, case", _GENERATED, ids=[f"{k}-{p}-{c}" for k, p, c in _GENERATED])
+def test_every_generated_case_equals_jax(fields, cls, pn, case):
+    """All 6 cases of SE+SE, S1 and S2 (relabelled representatives), 100 steps, on two problems."""
+    f, x0 = fields[pn]
+    m = vp.scheme(f, case, recover=False)
+    assert m.case == case and select_backend(m, "native")[0] == "native"
+    a = vp.integrate(m, x0, 0.05, 100, save_every=50, backend="native")
+    b = vp.integrate(m, x0, 0.05, 100, save_every=50, backend="jax")
+    assert np.all(b.status == 0)
+    _agree(a, b)
+
+
+_COMPOSED = [("lotka_volterra", "SE+SE"), ("abc", "SE+SE"), ("rotation", "S1"), ("rotation", "S2")]
+
+
+@pytest.mark.parametrize("order", [2, 4])
+@pytest.mark.parametrize("pn, cls", _COMPOSED)
+def test_compositions_of_relabelled_cases_equal_jax(fields, pn, cls, order):
+    """Compositions need the adjoint Ψ*_h = (Ψ_{−h})⁻¹: through the inverse map, implicit on
+    Lotka–Volterra and for the linear recipes (the inverse Newton engine), on a relabelled case."""
+    f, x0 = fields[pn]
+    case = next(c for c in vp.cases() if c.cls == cls and c.sigma != (3, 2, 1))
+    m = vp.compose(vp.scheme(f, case, recover=False), order)
+    assert select_backend(m, "native")[0] == "native"
+    a = vp.integrate(m, x0, 0.05, 100, save_every=50, backend="native")
+    b = vp.integrate(m, x0, 0.05, 100, save_every=50, backend="jax")
+    assert np.all(b.status == 0)
+    _agree(a, b)
+
+
+def test_closed_form_and_newton_solves_give_the_same_relabelled_map(fields):
+    """engine="newton" iterates where the emitter uses the closed form (ABC's shears, adjoint too)."""
+    f, x0 = fields["abc"]
+    case = next(c for c in vp.cases() if c.cls == "SE+SE" and c.sigma == (1, 3, 2))
+    m = vp.compose(vp.scheme(f, case, recover=False), 2)
+    a = run_points(m, x0, 0.1, [0, 100], engine="newton")
+    b = run_points(m, x0, 0.1, [0, 100])
+    assert np.all(a[1] == 0) and np.max(np.abs(a[0] - b[0])) <= 1e-11
+
+
+@pytest.mark.parametrize("which", ["case", "order 2"])
+def test_newton_failure_of_a_relabelled_case_is_frozen_like_jax(fields, which):
+    f, x0 = fields["lotka_volterra"]
+    case = next(c for c in vp.cases() if c.cls == "SE+SE" and c.sigma == (2, 3, 1))
+    m = vp.scheme(f, case, recover=False, newton={"max_iter": 2})
+    m = m if which == "case" else vp.compose(m, 2)
+    a = vp.integrate(m, x0, 0.2, 30, save_every=1, backend="native")
+    b = vp.integrate(m, x0, 0.2, 30, save_every=1, backend="jax")
+    assert np.any(b.status == RESULTS.not_converged)  # the JAX engine fails too
+    _agree(a, b)
+    assert np.all(np.isfinite(a.xs))
+
+
+@pytest.mark.slow  # ~30 s: the JAX recovering method compiles its alternatives
+def test_recovery_of_a_relabelled_case_agrees_with_jax(fields):
+    """recover=True (the default): where the bare native step fails (Newton capped at 3
+    iterations), the runner takes that step through the JAX recovering method; the result, the
+    status and Solution.recovered are those of the JAX backend."""
+    f, x0 = fields["lotka_volterra"]
+    case = next(c for c in vp.cases() if c.cls == "SE+SE" and c.sigma == (1, 3, 2))
+    m = vp.scheme(f, case, newton={"max_iter": 3}, recover_classes=False, recover_substeps=2)
+    a = vp.integrate(m, x0, 0.12, 40, save_every=10, backend="native")
+    b = vp.integrate(m, x0, 0.12, 40, save_every=10, backend="jax")
+    assert np.sum(b.recovered) > 0 and np.all(b.status == 0), (b.recovered, b.status)
+    assert np.array_equal(a.recovered, b.recovered)
+    _agree(a, b)
+
+
+@pytest.mark.parametrize("cls", ["DL+DL", "SE+DL", "S1", "S2"])
+def test_classes_left_on_jax_say_why(cls):
+    """DL potentials (L_d through an inner Newton) and the nonlinear S1/S2 correction maps are not
+    generated: "auto" runs them on JAX and "native" says why."""
+    m = vp.scheme(P.get("lotka_volterra").field, cls, recover=False)
+    name, why = select_backend(m, "auto")
+    assert name == "jax"
+    expect = "discrete Lagrangians" if "DL" in cls else "correction map"
+    assert expect in why
