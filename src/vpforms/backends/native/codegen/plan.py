@@ -4,7 +4,8 @@ The stages are applied left to right, stage k at step ``coefficient·h``; a fail
 is the step's (the first failure wins, as ``merge_status``). The method tree that
 :func:`vpforms.scheme` / :func:`vpforms.compose` build maps to stages by:
 
-* a class representative (SE+SE, linear S1/S2): its generating map (:func:`.potentials.class_stage`);
+* a class representative (SE+SE, linear S1/S2): its generating map; nonlinear S1/S2: Quispel's
+  correction map (:func:`.potentials.class_stage`);
 * :class:`~vpforms._methods._base.Relabelled` (π, π)·Ψ (prop:trivperm): each stage of Ψ relabelled
   (conjugation by π commutes with composition);
 * :class:`~vpforms._methods._base.Adjoint` Ψ*_h = (Ψ_{−h})⁻¹ (prop:switchperm): the adjoint of each
@@ -18,7 +19,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from .potentials import MapStage, RK4Stage, class_stage, symbolic_reason
+from .potentials import RK4Stage, class_stage, symbolic_reason
 
 __all__ = ["plan", "unsupported_reason"]
 
@@ -47,15 +48,15 @@ def plan(method: Any) -> list[tuple[Any, float]] | str:
         inner = plan(m.base)
         if isinstance(inner, str):
             return inner
-        if any(not isinstance(s, MapStage) for s, _ in inner):
+        if any(isinstance(s, RK4Stage) for s, _ in inner):
             return f"the adjoint of {getattr(m.base, 'name', m.base)} is implicit and not generated"
         return [(s.adjoint(), c) for s, c in reversed(inner)]
     if isinstance(m, Relabelled):
         inner = plan(m.base)
         if isinstance(inner, str):
             return inner
-        if any(not isinstance(s, MapStage) for s, _ in inner):
-            return "only generating-map stages can be relabelled natively"
+        if any(isinstance(s, RK4Stage) for s, _ in inner):
+            return "RK4 is not relabelled natively"
         return [(s.relabel(m.pi), c) for s, c in inner]
     if isinstance(m, RK4):
         why = symbolic_reason(m.field)

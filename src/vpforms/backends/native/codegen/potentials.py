@@ -11,10 +11,11 @@ adjunction leave it unchanged, see :meth:`MapStage.relabel`).
 * SE+SE (eq:case5): φ = y₂Y₃ + hF¹(y₃, y₂, Y₃), Φ = y₃Y₂ + hF³(y₃, Y₂, Y₃) from the field's
   closed-form SE potentials (``Field.se_potential_exprs``);
 * S1, S2 on linear fields: the SymPy recipes of :mod:`vpforms.symbolic.recipes` (the ones the JAX
-  methods lambdify) with the matrix entries substituted.
+  methods lambdify) with the matrix entries substituted;
 
-and otherwise returns the reason why not (DL classes: L_d has no closed form; nonlinear S1/S2:
-Quispel's correction map is not a generating map).
+and S1/S2 on nonlinear fields, Quispel's correction maps, as a :class:`CorrectionStage` (three
+scalar equations, not a generating map) when the correction integral has a closed form; otherwise
+the reason why not (DL classes: L_d has no closed form; a quadrature correction).
 """
 
 from __future__ import annotations
@@ -28,7 +29,7 @@ from ...._case import Case
 from ....symbolic import _symbols as G
 from ....symbolic.recipes import flip_generic
 
-__all__ = ["MapStage", "RK4Stage", "class_stage", "symbolic_reason"]
+__all__ = ["CORR_S", "CorrectionStage", "MapStage", "RK4Stage", "class_stage", "symbolic_reason"]
 
 
 @dataclass(frozen=True)
@@ -65,6 +66,33 @@ class MapStage:
         return replace(self, phi=nphi, Phi=nPhi, case=self.case.switched())
 
 
+@dataclass(frozen=True)
+class CorrectionStage:
+    """Quispel's correction map (t5vp / t5vps2, :class:`vpforms._methods.correction.QuispelCorrection`)
+    as its three scalar equations in sequence, with the closed-form correction antiderivative W:
+    X = Ψ(x·π)·π⁻¹ where Ψ is the map at ``hsign``·h, or its inverse (``inverse``)."""
+
+    a: tuple  # the field a(x) in G.x (of the field the correction map was built on)
+    W: sp.Expr  # W(x_i, s, x_k, h) in G.x[i], CORR_S, G.x[k], G.h
+    roles: tuple[int, int, int]  # (i, j, k), 0-based
+    newton: tuple[float, int, float]
+    inverse: bool = False
+    hsign: int = 1
+    pi: Any = None  # conjugation π (None: identity)
+
+    def relabel(self, pi) -> "CorrectionStage":
+        """(π, π)·Ψ: X = Ψ((x·π)·ρ)·ρ⁻¹·π⁻¹ = Ψ(x·(π∘ρ))·(π∘ρ)⁻¹ for the stage's own ρ."""
+        return replace(self, pi=pi if self.pi is None else pi * self.pi)
+
+    def adjoint(self) -> "CorrectionStage":
+        """Ψ*_h = (Ψ_{−h})⁻¹ (the conjugation stays)."""
+        return replace(self, inverse=not self.inverse, hsign=-self.hsign)
+
+
+#: the integration variable of :attr:`CorrectionStage.W`
+CORR_S = sp.Symbol("s_corr")
+
+
 def symbolic_reason(field: Any) -> str | None:
     """None if ``field`` has SymPy expressions without free parameters, else why not."""
     if getattr(field, "exprs", None) is None or getattr(field, "symbols", None) is None:
@@ -99,14 +127,13 @@ def class_stage(m: Any) -> MapStage | str:
         return (f"{name}: the DL potentials are discrete Lagrangians L_d, defined through an inner "
                 "Newton solve for p̄ (no SymPy expression); nested solves are not generated "
                 "natively")
-    if isinstance(m, QuispelCorrection):
-        return (f"{name}: S1/S2 on a nonlinear field is Quispel's correction map (t5vp/t5vps2), "
-                "not a generating map; native generates the linear recipes only")
     field = getattr(m, "field", None)
     why = symbolic_reason(field)
     if why:
         return why
     a = _to_x(field, field.exprs)
+    if isinstance(m, QuispelCorrection):
+        return _correction_stage(m, a)
     if isinstance(m, SESE):
         if field.se_potential_exprs is None:
             return "SE potentials have no closed form (quadrature); native needs symbolic potentials"
@@ -126,3 +153,19 @@ def class_stage(m: Any) -> MapStage | str:
     if extra:
         return f"{name}: potentials have unsubstituted parameters {sorted(map(str, extra))}"
     return MapStage(phi, Phi, m.case, m.case.sign, _newton(m), a)
+
+
+def _correction_stage(m, a) -> CorrectionStage | str:
+    from ...._methods.correction import correction_antiderivative
+
+    found = None if m._fc_closed is None else correction_antiderivative(m.field, m.roles)
+    if found is None:
+        return (f"{m.name}: the correction integral f_c is a quadrature for this field (its "
+                "integrand is not polynomial in s); native needs the closed form")
+    W, (s, h) = found
+    i, _, k = m.roles
+    W = _to_x(m.field, [W])[0].xreplace({s: CORR_S, h: G.h})
+    extra = W.free_symbols - {G.x[i], G.x[k], CORR_S, G.h}
+    if extra:
+        return f"{m.name}: correction has unsubstituted parameters {sorted(map(str, extra))}"
+    return CorrectionStage(a, W, tuple(m.roles), _newton(m))
