@@ -87,8 +87,9 @@ def test_native_step_preserves_volume(methods, which):
     J = np.stack(cols, axis=-1)  # (N, 3, 3)
     det = np.linalg.det(J)
     assert np.max(np.abs(det - 1.0)) < 1e-8
-    # and it is the JAX Jacobian of the same map
-    Jj = np.stack([np.asarray(jax.jacfwd(lambda p: m.step(p, h))(jnp.asarray(p))) for p in x])
+    # and it is the JAX Jacobian of the same map (the bare method: the kernel is built from it)
+    mb = m.without_recovery()
+    Jj = np.stack([np.asarray(jax.jacfwd(lambda p: mb.step(p, h))(jnp.asarray(p))) for p in x])
     assert np.max(np.abs(J - Jj)) < 1e-8
 
 
@@ -99,7 +100,7 @@ def test_nan_initial_condition_gives_nonfinite_status(methods):
     xs, st, failed, rec = run_points(m, x0, 0.1, [0, 5, 10])
     assert list(st) == [RESULTS.successful, RESULTS.nonfinite, RESULTS.successful]
     assert list(failed) == [-1, 0, -1]
-    good = vp.integrate(m, x0[[0, 2]], 0.1, 10, save_every=5, backend="jax")
+    good = vp.integrate(m.without_recovery(), x0[[0, 2]], 0.1, 10, save_every=5, backend="jax")
     assert np.max(np.abs(xs[[0, 2]] - good.xs)) <= 1e-12
     with pytest.raises(ValueError, match="NaN"):  # the front door still rejects it
         vp.integrate(m, x0, 0.1, 10)
@@ -115,11 +116,9 @@ def _overflow_field():
 class _Fake:
     """A method whose bare (native) step overflows near x1 ≈ 709 and whose recovering step succeeds."""
 
-    def __init__(self, recover: bool):
+    def __init__(self):
         self.bare = vp.RK4(_overflow_field())
         self.name = "fake-recovering"
-        if recover:
-            self.step_with_recovery = self._recover
 
     def without_recovery(self):
         return self.bare
@@ -127,12 +126,13 @@ class _Fake:
     def step_with_status(self, x, h):
         return self.bare.step_with_status(x, h)
 
-    def _recover(self, x, h):  # a finite step that only moves x1 (the exact x1 flow)
-        return x + jnp.array([h, 0.0, 0.0]), jnp.int32(0), jnp.int32(1)
+    def step_with_recovery(self, x, h):  # finite: only moves x1 (its exact flow), per point
+        n = jnp.shape(x)[:-1]
+        return x + jnp.array([h, 0.0, 0.0]), jnp.zeros(n, jnp.int32), jnp.ones(n, jnp.int32)
 
 
 def test_failed_native_step_is_recovered_through_jax():
-    m = _Fake(recover=True)
+    m = _Fake()
     x0 = np.array([[700.0, 0.0, 0.0], [0.0, 0.0, 0.0]])
     sol = vp.integrate(m, x0, 1.0, 15, save_every=1, backend="native")
     # the bare step first fails at step n_fail (JAX says where); from there on every step of
@@ -147,7 +147,7 @@ def test_failed_native_step_is_recovered_through_jax():
 
 
 def test_failed_native_step_without_recovery_is_frozen():
-    m = _Fake(recover=False)
+    m = vp.RK4(_overflow_field())  # a bare method: its failing particle is frozen
     x0 = np.array([[700.0, 0.0, 0.0], [0.0, 0.0, 0.0]])
     sol = vp.integrate(m, x0, 1.0, 15, save_every=1, backend="native")
     ref = vp.integrate(m, x0, 1.0, 15, save_every=1, backend="jax")
@@ -243,7 +243,8 @@ def test_native_newton_engine_equals_jax(pn):
 
 def test_newton_failure_is_frozen_with_its_status():
     prob = P.get("lotka_volterra")
-    m = vp.scheme(prob.field, "SE+SE", newton={"max_iter": 1})  # one iteration cannot converge
+    # one iteration cannot converge (bare: recovery is tested below)
+    m = vp.scheme(prob.field, "SE+SE", newton={"max_iter": 1}, recover=False)
     a = vp.integrate(m, prob.x0, 0.05, 10, save_every=1, backend="native")
     b = vp.integrate(m, prob.x0, 0.05, 10, save_every=1, backend="jax")
     assert np.all(b.status == RESULTS.not_converged)  # the JAX engine fails too (no recovery)
@@ -266,10 +267,11 @@ def _rotation():
     return vp.Field.linear(A, name="rotation")
 
 
-_PROBLEMS = {  # class → the two problems its cases are checked on
+_PROBLEMS = {  # class → the problems its cases are checked on (S1/S2: the linear recipe on a
+    # linear field, Quispel's correction map (closed-form f_c) on a nonlinear one)
     "SE+SE": ("abc", "lotka_volterra"),
-    "S1": ("rotation", "linear"),
-    "S2": ("rotation", "linear"),
+    "S1": ("rotation", "lotka_volterra", "linear"),
+    "S2": ("rotation", "lotka_volterra", "linear"),
 }
 
 
@@ -293,13 +295,15 @@ def _agree(a, b, tol=1e-11):
     assert err <= tol, err
 
 
-_GENERATED = [(cls, pn, c) for cls, pns in _PROBLEMS.items() for pn in pns
-              for c in vp.cases() if c.cls == cls]
+_GENERATED = [pytest.param(cls, pn, c, id=f"{cls}-{pn}-{c}",
+                           marks=[pytest.mark.slow] if pn == "linear" else [])  # a third problem
+              for cls, pns in _PROBLEMS.items() for pn in pns for c in vp.cases() if c.cls == cls]
 
 
-@pytest.mark.parametrize("cls, pn, case", _GENERATED, ids=[f"{k}-{p}-{c}" for k, p, c in _GENERATED])
+@pytest.mark.parametrize("cls, pn, case", _GENERATED)
 def test_every_generated_case_equals_jax(fields, cls, pn, case):
-    """All 6 cases of SE+SE, S1 and S2 (relabelled representatives), 100 steps, on two problems."""
+    """All 6 cases of SE+SE, S1 and S2 (relabelled representatives), 100 steps, on two or three
+    problems each."""
     f, x0 = fields[pn]
     m = vp.scheme(f, case, recover=False)
     assert m.case == case and select_backend(m, "native")[0] == "native"
@@ -309,7 +313,8 @@ def test_every_generated_case_equals_jax(fields, cls, pn, case):
     _agree(a, b)
 
 
-_COMPOSED = [("lotka_volterra", "SE+SE"), ("abc", "SE+SE"), ("rotation", "S1"), ("rotation", "S2")]
+_COMPOSED = [("lotka_volterra", "SE+SE"), ("abc", "SE+SE"), ("rotation", "S1"), ("rotation", "S2"),
+             ("abc", "S1"), ("lotka_volterra", "S2")]
 
 
 @pytest.mark.parametrize("order", [2, 4])
@@ -365,12 +370,18 @@ def test_recovery_of_a_relabelled_case_agrees_with_jax(fields):
     _agree(a, b)
 
 
-@pytest.mark.parametrize("cls", ["DL+DL", "SE+DL", "S1", "S2"])
-def test_classes_left_on_jax_say_why(cls):
-    """DL potentials (L_d through an inner Newton) and the nonlinear S1/S2 correction maps are not
-    generated: "auto" runs them on JAX and "native" says why."""
+@pytest.mark.parametrize("cls", ["DL+DL", "SE+DL"])
+def test_dl_classes_are_left_on_jax_and_say_why(cls):
+    """DL potentials are discrete Lagrangians (an inner Newton for p̄): "auto" runs them on JAX
+    and "native" says why."""
     m = vp.scheme(P.get("lotka_volterra").field, cls, recover=False)
     name, why = select_backend(m, "auto")
-    assert name == "jax"
-    expect = "discrete Lagrangians" if "DL" in cls else "correction map"
-    assert expect in why
+    assert name == "jax" and "discrete Lagrangians" in why
+    with pytest.raises(NativeUnavailableError, match="inner Newton"):
+        select_backend(m, "native")
+
+
+def test_quadrature_correction_is_left_on_jax_and_says_why():
+    m = vp.scheme(P.get("lotka_volterra").field, "S1", recover=False, integral="quadrature")
+    name, why = select_backend(m, "auto")
+    assert name == "jax" and "quadrature" in why
