@@ -6,7 +6,15 @@ rules of :func:`vpforms._newton.newton_scalar`: step, stopping test, twist, dive
 Newton step; status ``not_converged``/``twist_failure``), Y₁ from volpot3, X = Y·Σ⁻¹, and the
 non-finite status. A solve whose equation is affine in its unknown (g' free of it: e.g. the SE+SE
 shears of ABC) is emitted in closed form z = −g(0)/g' with the same twist test — the root Newton
-converges to; ``engine="newton"`` forces the iteration everywhere (tests, benchmark).
+converges to; ``engine="newton"`` forces the iteration everywhere (tests, benchmark). A
+:class:`~.potentials.CorrectionStage` (Quispel's correction map) is its three scalar equations in
+sequence, solved by the same emitter.
+
+Every stage is emitted twice: an exact version (early-exit Newton, the status) and a vectorised
+one (``FIXED_ITERS`` masked iterations, a success flag). The kernel runs the vectorised step on all
+lanes and redoes with the exact one only the lanes it did not decide as successes, so statuses
+and results are those of the exact code while gcc vectorises the common path (an early-exit loop
+inside ``#pragma omp simd`` would not be).
 
 The kernel: particles in blocks of ``BLOCK`` lanes held as structure-of-arrays in L1 for all steps
 of a segment; OpenMP over blocks; ``#pragma omp simd`` over lanes so gcc calls libmvec's sin/cos.
@@ -31,6 +39,7 @@ BLOCK = 64
 #: Newton iterations of the vectorised pass (see :func:`_newton_fixed_c`); only speed depends on it
 FIXED_ITERS = 5
 CDEF = "void vp_run(int64_t N, double *x, int32_t *status, int64_t *n, int64_t n_target, double h);"
+
 
 class _Printer(C99CodePrinter):
     """C99 with small integer powers as products: pow(x, 2) would be a libm call (``__powidf2``
@@ -177,14 +186,16 @@ def _map_body(st: MapStage, newton: bool, fixed: bool) -> list[str]:
     if need:
         comps = sorted(set(need.values()))
         lines += _assign([f"ga{i + 1}" for i in comps], [st.field_exprs[i] for i in comps], xs, "ge")
-    guess = {k: f"x{i + 1} + h*ga{i + 1}" if k in need else "0.0" for k, i in ((2, Sig[2]), (1, Sig[1]))}
+    guess = {k: f"x{i + 1} + h*ga{i + 1}" if k in need else "0.0"
+             for k, i in ((2, Sig[2]), (1, Sig[1]))}
     lines += _solve_c("Y3", g1, {**base, Y3: c["z"]}, guess[2], st.newton, "n1", newton, fixed)
     lines += _solve_c("Y2", g2, {**base, Y3: c["Y3"], Y2: c["z"]}, guess[1], st.newton, "n2",
                       newton, fixed)
     lines += _assign(["Y1"], [d2Phi], {**base, Y3: c["Y3"], Y2: c["Y2"]}, "v3")  # volpot3
     lines += [f"X{i + 1} = Y{Sinv[i] + 1};" for i in range(3)]  # X = Y·Σ⁻¹
     if fixed:  # success flag only: finite input and output, both solves converged
-        return lines + ["ok = n1_ok * n2_ok * (_VP_FINITE(x1, x2, x3) && _VP_FINITE(X1, X2, X3) ? 1.0 : 0.0);"]
+        fin = "_VP_FINITE(x1, x2, x3) && _VP_FINITE(X1, X2, X3)"
+        return lines + [f"ok = n1_ok * n2_ok * ({fin} ? 1.0 : 0.0);"]
     return lines + [
         "int inok = _VP_FINITE(x1, x2, x3), fin = _VP_FINITE(X1, X2, X3);",
         "code = n1_st ? n1_st : n2_st;",
@@ -224,7 +235,6 @@ def _correction_body(st: CorrectionStage, newton: bool, fixed: bool) -> list[str
         lines.extend(_solve_c(var, g, {}, guess, st.newton, tag, newton, fixed))
         solves.append(tag)
 
-    out = {}
     if not st.inverse:
         solve("cc", S("z") - hh * at(j, vi, z, vk), "0.0", "n1")  # the lower limit c
         solve("uj", z - vj - hh * at(j, vi, z, vk) + Wc(vi, z, vk) - Wc(vi, S("cc"), vk),
@@ -377,7 +387,11 @@ void vp_run(int64_t N, double *x, int32_t *status, int64_t *n, int64_t n_target,
                 nn[i] += ok;
                 redo[i] = act & !(good > 0.5);
             }}
-            for (int i = 0; i < B; i++) {{  /* the others, exactly (status, frozen on failure) */
+            int any = 0;
+            for (int i = 0; i < B; i++) any |= redo[i];
+            /* the others, exactly (status, frozen on failure); the guard matters: gcc vectorises
+               this loop with masks, i.e. it costs a full step of the block when entered */
+            if (any) for (int i = 0; i < B; i++) {{
                 if (!redo[i]) continue;
                 double X1, X2, X3;
                 int code = vp_step_exact(a1[i], a2[i], a3[i], h, &X1, &X2, &X3);
