@@ -384,3 +384,18 @@ def test_quadrature_correction_is_left_on_jax_and_says_why():
     m = vp.scheme(P.get("lotka_volterra").field, "S1", recover=False, integral="quadrature")
     name, why = select_backend(m, "auto")
     assert name == "jax" and "quadrature" in why
+
+
+def test_lanes_the_vectorised_pass_leaves_undecided_are_redone_exactly(fields, monkeypatch):
+    """With one vectorised Newton iteration no implicit solve converges in the fast pass, so every
+    step of every lane goes through the exact early-exit redo: still the JAX result and status."""
+    from vpforms.backends.native.codegen import emit
+
+    monkeypatch.setattr(emit, "FIXED_ITERS", 1)
+    f, x0 = fields["lotka_volterra"]
+    m = vp.compose(vp.scheme(f, "SE+SE", recover=False), 2)  # a fresh method: a fresh kernel
+    assert "n2_run = n2_run * (1.0 - fail)" in emit.kernel_source(m)  # an implicit solve, 1 pass
+    a = vp.integrate(m, x0, 0.05, 100, save_every=50, backend="native")
+    b = vp.integrate(m, x0, 0.05, 100, save_every=50, backend="jax")
+    assert np.all(b.status == 0)
+    _agree(a, b)
