@@ -87,8 +87,9 @@ def test_native_step_preserves_volume(methods, which):
     J = np.stack(cols, axis=-1)  # (N, 3, 3)
     det = np.linalg.det(J)
     assert np.max(np.abs(det - 1.0)) < 1e-8
-    # and it is the JAX Jacobian of the same map
-    Jj = np.stack([np.asarray(jax.jacfwd(lambda p: m.step(p, h))(jnp.asarray(p))) for p in x])
+    # and it is the JAX Jacobian of the same map (the bare method: the kernel is built from it)
+    mb = m.without_recovery()
+    Jj = np.stack([np.asarray(jax.jacfwd(lambda p: mb.step(p, h))(jnp.asarray(p))) for p in x])
     assert np.max(np.abs(J - Jj)) < 1e-8
 
 
@@ -99,7 +100,7 @@ def test_nan_initial_condition_gives_nonfinite_status(methods):
     xs, st, failed, rec = run_points(m, x0, 0.1, [0, 5, 10])
     assert list(st) == [RESULTS.successful, RESULTS.nonfinite, RESULTS.successful]
     assert list(failed) == [-1, 0, -1]
-    good = vp.integrate(m, x0[[0, 2]], 0.1, 10, save_every=5, backend="jax")
+    good = vp.integrate(m.without_recovery(), x0[[0, 2]], 0.1, 10, save_every=5, backend="jax")
     assert np.max(np.abs(xs[[0, 2]] - good.xs)) <= 1e-12
     with pytest.raises(ValueError, match="NaN"):  # the front door still rejects it
         vp.integrate(m, x0, 0.1, 10)
@@ -115,11 +116,9 @@ def _overflow_field():
 class _Fake:
     """A method whose bare (native) step overflows near x1 ≈ 709 and whose recovering step succeeds."""
 
-    def __init__(self, recover: bool):
+    def __init__(self):
         self.bare = vp.RK4(_overflow_field())
         self.name = "fake-recovering"
-        if recover:
-            self.step_with_recovery = self._recover
 
     def without_recovery(self):
         return self.bare
@@ -127,12 +126,13 @@ class _Fake:
     def step_with_status(self, x, h):
         return self.bare.step_with_status(x, h)
 
-    def _recover(self, x, h):  # a finite step that only moves x1 (the exact x1 flow)
-        return x + jnp.array([h, 0.0, 0.0]), jnp.int32(0), jnp.int32(1)
+    def step_with_recovery(self, x, h):  # finite: only moves x1 (its exact flow), per point
+        n = jnp.shape(x)[:-1]
+        return x + jnp.array([h, 0.0, 0.0]), jnp.zeros(n, jnp.int32), jnp.ones(n, jnp.int32)
 
 
 def test_failed_native_step_is_recovered_through_jax():
-    m = _Fake(recover=True)
+    m = _Fake()
     x0 = np.array([[700.0, 0.0, 0.0], [0.0, 0.0, 0.0]])
     sol = vp.integrate(m, x0, 1.0, 15, save_every=1, backend="native")
     # the bare step first fails at step n_fail (JAX says where); from there on every step of
@@ -147,7 +147,7 @@ def test_failed_native_step_is_recovered_through_jax():
 
 
 def test_failed_native_step_without_recovery_is_frozen():
-    m = _Fake(recover=False)
+    m = vp.RK4(_overflow_field())  # a bare method: its failing particle is frozen
     x0 = np.array([[700.0, 0.0, 0.0], [0.0, 0.0, 0.0]])
     sol = vp.integrate(m, x0, 1.0, 15, save_every=1, backend="native")
     ref = vp.integrate(m, x0, 1.0, 15, save_every=1, backend="jax")
@@ -243,7 +243,8 @@ def test_native_newton_engine_equals_jax(pn):
 
 def test_newton_failure_is_frozen_with_its_status():
     prob = P.get("lotka_volterra")
-    m = vp.scheme(prob.field, "SE+SE", newton={"max_iter": 1})  # one iteration cannot converge
+    # one iteration cannot converge (bare: recovery is tested below)
+    m = vp.scheme(prob.field, "SE+SE", newton={"max_iter": 1}, recover=False)
     a = vp.integrate(m, prob.x0, 0.05, 10, save_every=1, backend="native")
     b = vp.integrate(m, prob.x0, 0.05, 10, save_every=1, backend="jax")
     assert np.all(b.status == RESULTS.not_converged)  # the JAX engine fails too (no recovery)
@@ -256,3 +257,145 @@ def test_forced_newton_engine_equals_closed_form_on_abc(methods):
     a = run_points(ms["SE+SE"], prob.x0, 0.1, [0, 100], engine="newton")
     b = run_points(ms["SE+SE"], prob.x0, 0.1, [0, 100])
     assert np.all(a[1] == 0) and np.max(np.abs(a[0] - b[0])) <= 1e-11
+
+
+# ---- every generated case of every class (issue 9, second pass) --------------------------------
+def _rotation():
+    """A skew (hence traceless) linear field with every off-diagonal entry nonzero: bounded orbits,
+    and every S1/S2 case's recipe defined (the relabelled a₁₃, a₁₂ are never 0)."""
+    A = np.array([[0.0, 0.7, -1.1], [-0.7, 0.0, 0.4], [1.1, -0.4, 0.0]])
+    return vp.Field.linear(A, name="rotation")
+
+
+_PROBLEMS = {  # class → the problems its cases are checked on (S1/S2: the linear recipe on a
+    # linear field, Quispel's correction map (closed-form f_c) on a nonlinear one)
+    "SE+SE": ("abc", "lotka_volterra"),
+    "S1": ("rotation", "lotka_volterra"),
+    "S2": ("rotation", "lotka_volterra"),
+}
+
+
+def _problem(pn):
+    if pn == "rotation":
+        return _rotation(), np.array([[1.0, 0.0, 0.0], [0.3, -0.5, 0.7]])
+    prob = P.get(pn)
+    return prob.field, prob.x0
+
+
+@pytest.fixture(scope="module")
+def fields():
+    return {pn: _problem(pn) for pn in ("abc", "lotka_volterra", "rotation", "linear")}
+
+
+def _agree(a, b, tol=1e-11):
+    """native == JAX to tol, relative to 1 + |x| (the linear problem grows to |x| ~ 4e2)."""
+    assert a.stats["backend"] == "native" and b.stats["backend"] == "jax"
+    assert np.array_equal(a.status, b.status) and np.array_equal(a.failed_step, b.failed_step)
+    err = np.max(np.abs(a.xs - b.xs) / (1.0 + np.abs(b.xs)))
+    assert err <= tol, err
+
+
+_GENERATED = [pytest.param(cls, pn, c, id=f"{cls}-{pn}-{c}")
+              for cls, pns in _PROBLEMS.items() for pn in pns for c in vp.cases() if c.cls == cls]
+
+
+@pytest.mark.parametrize("cls, pn, case", _GENERATED)
+def test_every_generated_case_equals_jax(fields, cls, pn, case):
+    """All 6 cases of SE+SE, S1 and S2 (relabelled representatives), 100 steps, on two problems
+    each (one kernel per case and problem: the relabelled field's potentials differ)."""
+    f, x0 = fields[pn]
+    m = vp.scheme(f, case, recover=False)
+    assert m.case == case and select_backend(m, "native")[0] == "native"
+    a = vp.integrate(m, x0, 0.05, 100, save_every=50, backend="native")
+    b = vp.integrate(m, x0, 0.05, 100, save_every=50, backend="jax")
+    assert np.all(b.status == 0)
+    _agree(a, b)
+
+
+_COMPOSED = [("lotka_volterra", "SE+SE"), ("abc", "SE+SE"), ("rotation", "S1"), ("linear", "S2"),
+             ("abc", "S1"), ("lotka_volterra", "S2")]
+
+
+@pytest.mark.parametrize("order", [2, 4])
+@pytest.mark.parametrize("pn, cls", _COMPOSED)
+def test_compositions_of_relabelled_cases_equal_jax(fields, pn, cls, order):
+    """Compositions need the adjoint Ψ*_h = (Ψ_{−h})⁻¹: through the inverse map, implicit on
+    Lotka–Volterra and for the linear recipes (the inverse Newton engine), on a relabelled case."""
+    f, x0 = fields[pn]
+    case = next(c for c in vp.cases() if c.cls == cls and c.sigma != (3, 2, 1))
+    m = vp.compose(vp.scheme(f, case, recover=False), order)
+    assert select_backend(m, "native")[0] == "native"
+    a = vp.integrate(m, x0, 0.05, 100, save_every=50, backend="native")
+    b = vp.integrate(m, x0, 0.05, 100, save_every=50, backend="jax")
+    assert np.all(b.status == 0)
+    _agree(a, b)
+
+
+def test_closed_form_and_newton_solves_give_the_same_relabelled_map(fields):
+    """engine="newton" iterates where the emitter uses the closed form (ABC's shears, adjoint too)."""
+    f, x0 = fields["abc"]
+    case = next(c for c in vp.cases() if c.cls == "SE+SE" and c.sigma == (1, 3, 2))
+    m = vp.compose(vp.scheme(f, case, recover=False), 2)
+    a = run_points(m, x0, 0.1, [0, 100], engine="newton")
+    b = run_points(m, x0, 0.1, [0, 100])
+    assert np.all(a[1] == 0) and np.max(np.abs(a[0] - b[0])) <= 1e-11
+
+
+@pytest.mark.parametrize("which", ["case", "order 2"])
+def test_newton_failure_of_a_relabelled_case_is_frozen_like_jax(fields, which):
+    f, x0 = fields["lotka_volterra"]
+    case = next(c for c in vp.cases() if c.cls == "SE+SE" and c.sigma == (2, 3, 1))
+    m = vp.scheme(f, case, recover=False, newton={"max_iter": 2})
+    m = m if which == "case" else vp.compose(m, 2)
+    a = vp.integrate(m, x0, 0.2, 30, save_every=1, backend="native")
+    b = vp.integrate(m, x0, 0.2, 30, save_every=1, backend="jax")
+    assert np.any(b.status == RESULTS.not_converged)  # the JAX engine fails too
+    _agree(a, b)
+    assert np.all(np.isfinite(a.xs))
+
+
+@pytest.mark.slow  # ~30 s: the JAX recovering method compiles its alternatives
+def test_recovery_of_a_relabelled_case_agrees_with_jax(fields):
+    """recover=True (the default): where the bare native step fails (Newton capped at 3
+    iterations), the runner takes that step through the JAX recovering method; the result, the
+    status and Solution.recovered are those of the JAX backend."""
+    f, x0 = fields["lotka_volterra"]
+    case = next(c for c in vp.cases() if c.cls == "SE+SE" and c.sigma == (1, 3, 2))
+    m = vp.scheme(f, case, newton={"max_iter": 3}, recover_classes=False, recover_substeps=2)
+    a = vp.integrate(m, x0, 0.12, 40, save_every=10, backend="native")
+    b = vp.integrate(m, x0, 0.12, 40, save_every=10, backend="jax")
+    assert np.sum(b.recovered) > 0 and np.all(b.status == 0), (b.recovered, b.status)
+    assert np.array_equal(a.recovered, b.recovered)
+    _agree(a, b)
+
+
+@pytest.mark.parametrize("cls", ["DL+DL", "SE+DL"])
+def test_dl_classes_are_left_on_jax_and_say_why(cls):
+    """DL potentials are discrete Lagrangians (an inner Newton for p̄): "auto" runs them on JAX
+    and "native" says why."""
+    m = vp.scheme(P.get("lotka_volterra").field, cls, recover=False)
+    name, why = select_backend(m, "auto")
+    assert name == "jax" and "discrete Lagrangians" in why
+    with pytest.raises(NativeUnavailableError, match="inner Newton"):
+        select_backend(m, "native")
+
+
+def test_quadrature_correction_is_left_on_jax_and_says_why():
+    m = vp.scheme(P.get("lotka_volterra").field, "S1", recover=False, integral="quadrature")
+    name, why = select_backend(m, "auto")
+    assert name == "jax" and "quadrature" in why
+
+
+def test_lanes_the_vectorised_pass_leaves_undecided_are_redone_exactly(fields, monkeypatch):
+    """With one vectorised Newton iteration no implicit solve converges in the fast pass, so every
+    step of every lane goes through the exact early-exit redo: still the JAX result and status."""
+    from vpforms.backends.native.codegen import emit
+
+    monkeypatch.setattr(emit, "FIXED_ITERS", 1)
+    f, x0 = fields["lotka_volterra"]
+    m = vp.compose(vp.scheme(f, "SE+SE", recover=False), 2)  # a fresh method: a fresh kernel
+    assert "n2_run = n2_run * (1.0 - fail)" in emit.kernel_source(m)  # an implicit solve, 1 pass
+    a = vp.integrate(m, x0, 0.05, 100, save_every=50, backend="native")
+    b = vp.integrate(m, x0, 0.05, 100, save_every=50, backend="jax")
+    assert np.all(b.status == 0)
+    _agree(a, b)

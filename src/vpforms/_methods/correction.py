@@ -195,8 +195,10 @@ def _finite(X):
     return jnp.where(jnp.all(jnp.isfinite(X)), 0, 3).astype(jnp.int32)
 
 
-def _closed_form_correction(field, roles):
-    """W(x_i, s, x_k, h), an antiderivative in s of the integrand, or None (no SymPy / not polynomial)."""
+def correction_antiderivative(field, roles):
+    """(W, (s, h)): W(x_i, s, x_k, h) an antiderivative in s of the integrand of f_c, a SymPy
+    expression in ``field.symbols[i]``, ``s``, ``field.symbols[k]``, ``h``; or None (no SymPy /
+    integrand not polynomial in s). The native backend generates C from it."""
     if field.exprs is None or field.symbols is None:
         return None
     i, j, k = roles
@@ -215,6 +217,17 @@ def _closed_form_correction(field, roles):
         W = sp.integrate(w, s)
     else:
         return None
+    return W, (s, h)
+
+
+def _closed_form_correction(field, roles):
+    """W(x_i, s, x_k, h) as a JAX function (:func:`correction_antiderivative`), or None."""
+    found = correction_antiderivative(field, roles)
+    if found is None:
+        return None
+    W, (s, h) = found
+    i, j, k = roles
+    sym = field.symbols
     f = sp.lambdify((sym[i], s, sym[k], h), W, modules="jax")
 
     def Wfun(vi, vs, vk, vh):

@@ -125,6 +125,7 @@ def scheme(field: Any, case: Case | str | tuple = "SE+SE", **options) -> Method:
     pi = c.sigma * rep.sigma.inverse()  # c.sigma = π∘σ₀
     if pi * rep.Sigma != c.Sigma:
         # τ(c) = τ₀⁻¹: the adjoint of the method for the switched case (prop:switchperm)
+        # bare like this call (recover was popped above): no recovery wrapper inside the adjoint
         return scheme(field, c.switched(), recover=False, **options).adjoint()
     try:
         base = representative_method(relabelled_field(field, pi), c.cls, **dict(options))

@@ -24,8 +24,10 @@ __all__ = ["FLAGS", "available", "build", "cache_dir", "compiler", "COUNTERS"]
 
 #: -ffast-math lets gcc call libmvec's vector sin/cos; -fno-finite-math-only keeps NaN/inf tests
 #: working; -fdisable-tree-sincos stops the sin+cos → sincos fusion that has no vector variant.
+#: That pass also expands __builtin_powi, which -ffast-math's reassociation makes of x*x: without
+#: it every square becomes a scalar __powidf2 call (unvectorisable), so reassociation is off too.
 FLAGS = ("-O3", "-march=native", "-ffast-math", "-fno-finite-math-only",
-         "-fdisable-tree-sincos", "-fopenmp")
+         "-fdisable-tree-sincos", "-fdisable-tree-reassoc1", "-fdisable-tree-reassoc2", "-fopenmp")
 #: How many compilations / cache hits this process did (tests read it).
 COUNTERS = {"compiled": 0, "cache_hits": 0}
 

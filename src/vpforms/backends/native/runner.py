@@ -65,6 +65,8 @@ def _advance_with_recovery(kernel, method, x, status, n, recovered, n_target, h,
         before = status.copy()
         kernel.advance(x, status, n, n_target, h)
         idx = np.flatnonzero((before == RESULTS.successful) & (status != RESULTS.successful))
+        # a non-finite state fails every alternative too (each maps the same point): not tried
+        idx = idx[np.all(np.isfinite(x[idx]), axis=1)]
         if idx.size == 0 or not lazy:
             return
         X, st, code = recover_points(method, x[idx], h)

@@ -1,0 +1,410 @@
+"""C from the stages of :mod:`.plan`: the generic map per lane, RK4, and the kernel ``vp_run``.
+
+A :class:`~.potentials.MapStage` becomes a function that does what :mod:`vpforms._map` does for one
+point: y = x·σ, the Euler guess, the scalar solve of volpot1 for Y₃ then of volpot2 for Y₂ (the
+rules of :func:`vpforms._newton.newton_scalar`: step, stopping test, twist, divergence bound, final
+Newton step; status ``not_converged``/``twist_failure``), Y₁ from volpot3, X = Y·Σ⁻¹, and the
+non-finite status. A solve whose equation is affine in its unknown (g' free of it: e.g. the SE+SE
+shears of ABC) is emitted in closed form z = −g(0)/g' with the same twist test — the root Newton
+converges to; ``engine="newton"`` forces the iteration everywhere (tests, benchmark). A
+:class:`~.potentials.CorrectionStage` (Quispel's correction map) is its three scalar equations in
+sequence, solved by the same emitter.
+
+Every stage is emitted twice: an exact version (early-exit Newton, the status) and a vectorised
+one (``FIXED_ITERS`` masked iterations, a success flag). The kernel runs the vectorised step on all
+lanes and redoes with the exact one only the lanes it did not decide as successes, so statuses
+and results are those of the exact code while gcc vectorises the common path (an early-exit loop
+inside ``#pragma omp simd`` would not be).
+
+The kernel: particles in blocks of ``BLOCK`` lanes held as structure-of-arrays in L1 for all steps
+of a segment; OpenMP over blocks; ``#pragma omp simd`` over lanes so gcc calls libmvec's sin/cos.
+A lane whose step fails is frozen with its status and its step index kept.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import sympy as sp
+from sympy.printing.c import C99CodePrinter
+
+from ...._errors import RESULTS
+from ....symbolic import _symbols as G
+from .plan import plan
+from .potentials import CORR_S, CorrectionStage, MapStage, RK4Stage
+
+__all__ = ["BLOCK", "CDEF", "kernel_source"]
+
+BLOCK = 64
+#: Newton iterations of the vectorised pass (see :func:`_newton_fixed_c`); only speed depends on it
+FIXED_ITERS = 5
+CDEF = "void vp_run(int64_t N, double *x, int32_t *status, int64_t *n, int64_t n_target, double h);"
+
+
+class _Printer(C99CodePrinter):
+    """C99 with small integer powers as products: pow(x, 2) would be a libm call (``__powidf2``
+    once gcc sees the re-declared ``pow``), which blocks vectorisation."""
+
+    def _print_Pow(self, expr):
+        b, e = expr.as_base_exp()
+        if e.is_Integer and 2 <= abs(int(e)) <= 4:
+            base = self.parenthesize(b, 100)  # atom or parenthesised
+            prod = "*".join([base] * abs(int(e)))
+            return f"({prod})" if e > 0 else f"(1.0/({prod}))"
+        return super()._print_Pow(expr)
+
+
+_printer = _Printer()
+
+#: glibc declares libmvec's vector variants only under __FAST_MATH__, which -fno-finite-math-only
+#: turns off; re-declare them (glibc ≥ 2.22 has these five) so gcc still vectorises the calls.
+_SIMD_DECLS = "".join(
+    f'__attribute__((__simd__("notinbranch"))) double {f}(double{", double" if f == "pow" else ""});\n'
+    for f in ("sin", "cos", "exp", "log", "pow")
+)
+
+# C variable names as SymPy symbols (no assumptions: printed by name)
+_C = {n: sp.Symbol(n) for n in ("x1", "x2", "x3", "y1", "y2", "y3", "Y2", "Y3", "z", "h")}
+
+
+def _assign(targets: list[str], exprs: list[Any], subs: dict, tag: str) -> list[str]:
+    """C statements ``double t = e;`` with common-subexpression elimination (sympy.cse)."""
+    exprs = [sp.sympify(e).xreplace(subs) for e in exprs]
+    syms = sp.numbered_symbols(f"{tag}_")
+    reps, red = sp.cse(exprs, symbols=syms)
+    lines = [f"double {s} = {_printer.doprint(e)};" for s, e in reps]
+    lines += [f"double {t} = {_printer.doprint(e)};" for t, e in zip(targets, red)]
+    return lines
+
+
+def _newton_c(var: str, z0: str, g_dg: list[str], opts: tuple, tag: str) -> list[str]:
+    """newton_scalar (vpforms._newton) in C: same step, stopping rule, twist and divergence tests,
+    and the final Newton step; ``g_dg`` are statements defining ``{tag}_g``/``{tag}_dg`` of z.
+    Defines ``double var`` and ``int {tag}_st``."""
+    tol, mi, tw = opts
+    body = "\n        ".join(g_dg)
+    return [
+        f"double {tag}_z = {z0}, {tag}_z0 = {tag}_z; int {tag}_st = -1;",
+        f"double {tag}_far = 1e8 * (1.0 + fabs({tag}_z0));",
+        f"for (int it = 0; it < {mi} && {tag}_st == -1; it++) {{",
+        f"    double z = {tag}_z;",
+        f"    {{\n        {body}",
+        f"    int tw = !(fabs({tag}_dg) > {tw!r});",
+        f"    double step = {tag}_g / (tw ? 1.0 : {tag}_dg);",
+        "    double zn = z - step;",
+        f"    int dv = !(fabs(zn) <= DBL_MAX) || fabs(zn - {tag}_z0) > {tag}_far;",
+        f"    int cv = fabs(step) <= {tol!r} * (1.0 + fabs(zn));",
+        f"    {tag}_st = tw ? {RESULTS.twist_failure} : dv ? {RESULTS.not_converged} : cv ? 0 : -1;",
+        f"    {tag}_z = (tw || dv) ? z : zn;",
+        "    }",
+        "}",
+        f"if ({tag}_st == -1) {tag}_st = {RESULTS.not_converged};",
+        f"if ({tag}_st == 0) {{ double z = {tag}_z; {{\n        {body}",
+        f"    {tag}_z = z - {tag}_g / {tag}_dg; }} }}",
+        f"double {var} = {tag}_z;",
+    ]
+
+
+def _newton_fixed_c(var: str, z0: str, g_dg: list[str], opts: tuple, tag: str) -> list[str]:
+    """The vectorised pass of :func:`_newton_c`: its first ``FIXED_ITERS`` iterations unrolled and
+    masked, the state kept in doubles (so that gcc if-converts every select), and ``{tag}_ok`` =
+    1.0 only if the solve converged in them. Anything else (a failure, or a lane still iterating)
+    sends the lane's whole step to the exact early-exit code (``vp_step_exact``): statuses and
+    iterations are always those of :func:`_newton_c`; only speed depends on ``FIXED_ITERS``."""
+    tol, mi, tw = opts
+    body = "\n    ".join(g_dg)
+    it = [
+        f"{{ double z = {tag}_z;",
+        f"    {body}",
+        f"    double tw = !(fabs({tag}_dg) > {tw!r}) ? 1.0 : 0.0;",
+        f"    double step = {tag}_g / (tw > 0.5 ? 1.0 : {tag}_dg);",
+        "    double zn = z - step;",
+        f"    double dv = (!(fabs(zn) <= DBL_MAX) | (fabs(zn - {tag}_z0) > {tag}_far)) ? 1.0 : 0.0;",
+        f"    double cv = fabs(step) <= {tol!r} * (1.0 + fabs(zn)) ? 1.0 : 0.0;",
+        "    double fail = tw > dv ? tw : dv;",  # fmax does not vectorise (NaN semantics)
+        f"    {tag}_z = {tag}_run * (1.0 - fail) > 0.5 ? zn : {tag}_z;",
+        f"    {tag}_bad = {tag}_bad + {tag}_run * fail;",  # fails at most once
+        f"    {tag}_run = {tag}_run * (1.0 - fail) * (1.0 - cv); }}",
+    ]
+    lines = [
+        f"double {tag}_z = {z0}, {tag}_z0 = {tag}_z, {tag}_run = 1.0, {tag}_bad = 0.0;",
+        f"double {tag}_far = 1e8 * (1.0 + fabs({tag}_z0));",
+    ]
+    for _ in range(min(FIXED_ITERS, mi)):
+        lines += it
+    lines += [
+        f"double {tag}_ok = (1.0 - {tag}_bad) * (1.0 - {tag}_run);",
+        f"{{ double z = {tag}_z;",
+        f"    {body}",
+        f"    {tag}_z = {tag}_ok > 0.5 ? z - {tag}_g / {tag}_dg : z; }}",
+        f"double {var} = {tag}_z;",
+    ]
+    return lines
+
+
+def _solve_c(var: str, g: sp.Expr, subs: dict, guess: str, opts: tuple, tag: str,
+             newton: bool, fixed: bool) -> list[str]:
+    """Solve g(z) = 0 for ``var`` (z = the symbol _C["z"] after ``subs``); defines the status
+    ``int {tag}_st``, or with ``fixed`` (the vectorised pass, :func:`_newton_fixed_c`) the
+    success flag ``double {tag}_ok``."""
+    g = sp.sympify(g).xreplace(subs)
+    z = _C["z"]
+    dg = sp.diff(g, z)
+    if newton or z in dg.free_symbols:
+        emit = _newton_fixed_c if fixed else _newton_c
+        return emit(var, guess, _assign([f"{tag}_g", f"{tag}_dg"], [g, dg], {}, f"{tag}c"), opts, tag)
+    # affine in z: the root Newton converges to, in closed form; the same twist test on g' = const
+    lines = _assign([f"{tag}_g0", f"{tag}_dg"], [g.xreplace({z: 0}), dg], {}, f"{tag}c")
+    lines.append(f"double {var} = -{tag}_g0 / {tag}_dg;")
+    if dg.is_Number and abs(float(dg)) > opts[2]:
+        lines.append(f"double {tag}_ok = 1.0;" if fixed else f"int {tag}_st = 0;")
+    elif fixed:
+        lines.append(f"double {tag}_ok = fabs({tag}_dg) > {opts[2]!r} ? 1.0 : 0.0;")
+    else:
+        lines.append(f"int {tag}_st = !(fabs({tag}_dg) > {opts[2]!r}) ? {RESULTS.twist_failure} : 0;")
+    return lines
+
+
+def _map_body(st: MapStage, newton: bool, fixed: bool) -> list[str]:
+    """((σ,Σ)·f^s_{φ,Φ})(x) on one lane, as vpforms._map._solve_point (see the module docstring)."""
+    Y3, Y2, y1, y2, y3, h = G.Y[2], G.Y[1], G.y[0], G.y[1], G.y[2], G.h
+    c = _C
+    sig, Sig, Sinv = st.case.sigma.index, st.case.Sigma.index, st.case.Sigma.inverse().index
+    lines = [f"double y{k + 1} = x{sig[k] + 1};" for k in range(3)]  # y = x·σ
+    base = {y1: c["y1"], y2: c["y2"], y3: c["y3"], h: c["h"]}
+    d2phi, d1phi = sp.diff(st.phi, y2), sp.diff(st.phi, Y3)
+    d3Phi, d2Phi = sp.diff(st.Phi, y3), sp.diff(st.Phi, Y2)
+    g1 = d2phi - y1  # volpot1: ∂₂φ(Y₃, y₂, y₃) = y₁, for Y₃
+    g2 = d3Phi + st.sign * d1phi  # volpot2: ∂₃Φ(Y₃, Y₂, y₃) ± ∂₁φ(Y₃, y₂, y₃) = 0, for Y₂
+    # Euler guess X ≈ x + h a(x), Y = X·Σ: only the components a Newton iteration starts from
+    need = {}
+    for k, g, sub in ((2, g1, {Y3: c["z"]}), (1, g2, {Y3: c["Y3"], Y2: c["z"]})):
+        gz = sp.sympify(g).xreplace({**base, **sub})
+        if newton or c["z"] in sp.diff(gz, c["z"]).free_symbols:
+            need[k] = Sig[k]
+    xs = {G.x[i]: c[f"x{i + 1}"] for i in range(3)}
+    if need:
+        comps = sorted(set(need.values()))
+        lines += _assign([f"ga{i + 1}" for i in comps], [st.field_exprs[i] for i in comps], xs, "ge")
+    guess = {k: f"x{i + 1} + h*ga{i + 1}" if k in need else "0.0"
+             for k, i in ((2, Sig[2]), (1, Sig[1]))}
+    lines += _solve_c("Y3", g1, {**base, Y3: c["z"]}, guess[2], st.newton, "n1", newton, fixed)
+    lines += _solve_c("Y2", g2, {**base, Y3: c["Y3"], Y2: c["z"]}, guess[1], st.newton, "n2",
+                      newton, fixed)
+    lines += _assign(["Y1"], [d2Phi], {**base, Y3: c["Y3"], Y2: c["Y2"]}, "v3")  # volpot3
+    lines += [f"X{i + 1} = Y{Sinv[i] + 1};" for i in range(3)]  # X = Y·Σ⁻¹
+    if fixed:  # success flag only: finite input and output, both solves converged
+        fin = "_VP_FINITE(x1, x2, x3) && _VP_FINITE(X1, X2, X3)"
+        return lines + [f"ok = n1_ok * n2_ok * ({fin} ? 1.0 : 0.0);"]
+    return lines + [
+        "int inok = _VP_FINITE(x1, x2, x3), fin = _VP_FINITE(X1, X2, X3);",
+        "code = n1_st ? n1_st : n2_st;",
+        f"code = !inok ? {RESULTS.nonfinite} : (code == 0 && !fin) ? {RESULTS.nonfinite} : code;",
+    ]
+
+
+def _correction_body(st: CorrectionStage, newton: bool, fixed: bool) -> list[str]:
+    """Quispel's correction map on one lane, as QuispelCorrection._forward/_backward: with roles
+    (i, j, k), forward: c = h a_j(x_i, c, x_k) (guess 0), then X_j from
+    X_j − x_j − h a_j(x_i, X_j, x_k) + W(X_j) − W(c) = 0 (guess x_j + h a_j(x)), then X_i, X_k
+    explicit; inverse: x_k, x_i by Newton, c, then x_j explicit. h is ``hsign``·h; the lane is
+    conjugated by π (y = x·π, X = Y·π⁻¹)."""
+    S = sp.Symbol
+    i, j, k = st.roles
+    pi = st.pi.index if st.pi is not None else (0, 1, 2)
+    pinv = st.pi.inverse().index if st.pi is not None else (0, 1, 2)
+    hh = S("hh")
+    lines = [f"double v{m + 1} = x{pi[m] + 1};" for m in range(3)]  # v = x·π
+    lines.append(f"double hh = {st.hsign} * h;")
+    a = [sp.sympify(e).xreplace({G.h: hh}) for e in st.a]
+    W = sp.sympify(st.W).xreplace({G.h: hh})
+
+    def at(comp, vi, vj, vk):  # a_comp at the point with slots (i, j, k) = (vi, vj, vk)
+        return a[comp].xreplace({G.x[i]: vi, G.x[j]: vj, G.x[k]: vk})
+
+    def Wc(vi, u, vk):
+        return W.xreplace({G.x[i]: vi, CORR_S: u, G.x[k]: vk})
+
+    z, vi, vj, vk = S("z"), S(f"v{i + 1}"), S(f"v{j + 1}"), S(f"v{k + 1}")
+    solves = []
+
+    def solve(var, g, guess, tag):
+        if guess != "0.0":
+            lines.extend(_assign([f"{tag}_guess"], [guess], {}, f"{tag}i"))
+            guess = f"{tag}_guess"
+        lines.extend(_solve_c(var, g, {}, guess, st.newton, tag, newton, fixed))
+        solves.append(tag)
+
+    if not st.inverse:
+        solve("cc", S("z") - hh * at(j, vi, z, vk), "0.0", "n1")  # the lower limit c
+        solve("uj", z - vj - hh * at(j, vi, z, vk) + Wc(vi, z, vk) - Wc(vi, S("cc"), vk),
+              vj + hh * at(j, vi, vj, vk), "n2")
+        lines += _assign(["ui"], [vi + hh * at(i, vi, S("uj"), vk)], {}, "ei")
+        lines += _assign(["uk"], [vk + hh * at(k, S("ui"), S("uj"), vk)], {}, "ek")
+    else:  # vi, vj, vk are X_i, X_j, X_k
+        solve("uk", z + hh * at(k, vi, vj, z) - vk, vk - hh * at(k, vi, vj, vk), "n1")
+        solve("ui", z + hh * at(i, z, vj, S("uk")) - vi, vi - hh * at(i, vi, vj, S("uk")), "n2")
+        solve("cc", z - hh * at(j, S("ui"), z, S("uk")), "0.0", "n3")
+        lines += _assign(["uj"], [vj - hh * at(j, S("ui"), vj, S("uk"))
+                                  + Wc(S("ui"), vj, S("uk")) - Wc(S("ui"), S("cc"), S("uk"))], {}, "ej")
+    out = {i: "ui", j: "uj", k: "uk"}
+    lines += [f"double Y{m + 1} = {out[m]};" for m in range(3)]
+    lines += [f"X{m + 1} = Y{pinv[m] + 1};" for m in range(3)]  # X = Y·π⁻¹
+    if fixed:
+        oks = " * ".join(f"{t}_ok" for t in solves)
+        return lines + [f"ok = {oks} * (_VP_FINITE(X1, X2, X3) ? 1.0 : 0.0);"]
+    sts = [f"{t}_st" for t in solves]
+    merged = sts[-1]
+    for t in reversed(sts[:-1]):
+        merged = f"({t} ? {t} : {merged})"
+    return lines + [f"code = {merged};",
+                    f"code = (code == 0 && !_VP_FINITE(X1, X2, X3)) ? {RESULTS.nonfinite} : code;"]
+
+
+def _rk4_body(field) -> list[str]:
+    s = field.symbols
+    a = [sp.sympify(e) for e in field.exprs]
+    lines = []
+    prev = None
+    for c, name in [(0, "k1"), (0.5, "k2"), (0.5, "k3"), (1.0, "k4")]:
+        args = [f"x{i + 1}" if prev is None else f"(x{i + 1} + {c!r}*h*{prev}_{i + 1})" for i in range(3)]
+        lines += [f"double {name}_in{i + 1} = {args[i]};" for i in range(3)]
+        lines += _assign([f"{name}_{i + 1}" for i in range(3)], a,
+                         {s[i]: sp.Symbol(f"{name}_in{i + 1}") for i in range(3)}, f"{name}c")
+        prev = name
+    for i in range(3):
+        j = i + 1
+        lines.append(f"X{j} = x{j} + (h/6.0)*(k1_{j} + 2.0*k2_{j} + 2.0*k3_{j} + k4_{j});")
+    return lines
+
+
+def _stage_fn(name: str, body: list[str], fixed: bool) -> str:
+    """A stage: the exact one returns its status ``code``; the vectorised pass (``fixed``) its
+    success flag ``ok`` (1.0: converged, finite; anything else is redone exactly)."""
+    step = "\n    ".join(body)
+    ret, init = ("double", "double ok = 1.0;") if fixed else ("int", "int code = 0;")
+    return f"""static inline _VP_INLINE {ret} {name}(double x1, double x2, double x3, double h,
+                           double *restrict o1, double *restrict o2, double *restrict o3) {{
+    double X1, X2, X3; {init}
+    {step}
+    *o1 = X1; *o2 = X2; *o3 = X3;
+    return {"ok" if fixed else "code"};
+}}
+"""
+
+
+def _stage_body(stage: Any, newton: bool, fixed: bool) -> list[str]:
+    if isinstance(stage, RK4Stage):  # explicit: the kernel's finiteness test is its status
+        return _rk4_body(stage.field) + (["ok = _VP_FINITE(X1, X2, X3) ? 1.0 : 0.0;"] if fixed else [])
+    if isinstance(stage, CorrectionStage):
+        return _correction_body(stage, newton, fixed)
+    return _map_body(stage, newton, fixed)
+
+
+def _step_fn(name: str, calls: list[str], fixed: bool) -> str:
+    body = "\n    ".join(calls)
+    init = "double ok = 1.0;" if fixed else "int code = 0, c;"
+    return f"""static inline _VP_INLINE {"double" if fixed else "int"} {name}(double x1, double x2, double x3, double h,
+                          double *restrict o1, double *restrict o2, double *restrict o3) {{
+    double y1 = x1, y2 = x2, y3 = x3; {init}
+    {body}
+    *o1 = y1; *o2 = y2; *o3 = y3;
+    return {"ok" if fixed else "code"};
+}}
+"""
+
+
+def kernel_source(method: Any, engine: str = "auto") -> str:
+    """The complete C source of ``vp_run`` for ``method`` (see :data:`CDEF`).
+
+    ``engine="newton"`` iterates Newton on every solve, also where the equation is affine in its
+    unknown (the same map; used to measure the engine against the closed form).
+
+    Each step runs first as ``vp_step_fast`` (vectorised over the lanes of a block: closed-form
+    solves and ``FIXED_ITERS`` masked Newton iterations); a lane it does not decide as a success
+    (a failure, or a solve still iterating) is redone by ``vp_step_exact`` (scalar, the early-exit
+    solves of :func:`vpforms._newton.newton_scalar`), which gives it its exact status."""
+    from ...._integrate import describe
+
+    if engine not in ("auto", "newton"):
+        raise ValueError(f"engine must be 'auto' or 'newton', got {engine!r}")
+    stages = plan(method)
+    if isinstance(stages, str):
+        raise ValueError(stages)
+    fns, steps = "", ""
+    for kind, fixed in (("fast", True), ("exact", False)):
+        names: dict[str, str] = {}  # body → function name (stages with the same map share one)
+        calls = []
+        for stage, coef in stages:
+            body = "\n".join(_stage_body(stage, engine == "newton", fixed))
+            fn = names.setdefault(body, f"vp_{kind}{len(names)}")
+            call = f"{fn}(y1, y2, y3, {coef!r} * h, &y1, &y2, &y3);"
+            calls.append(f"ok *= {call}" if fixed else f"c = {call} code = code ? code : c;")
+        fns += "".join(_stage_fn(fn, body.split("\n"), fixed) for body, fn in names.items())
+        steps += _step_fn(f"vp_step_{kind}", calls, fixed)
+    nf = RESULTS.nonfinite
+    return f"""
+#include <math.h>
+#include <stdint.h>
+#include <float.h>
+#define B {BLOCK}
+/* finite test that survives -ffast-math: NaN fails every comparison */
+/* every stage inlined into the lane loop, however many (a call there blocks vectorisation) */
+#define _VP_INLINE __attribute__((always_inline))
+#define _VP_FINITE(a, b, c) ((fabs(a) <= DBL_MAX) & (fabs(b) <= DBL_MAX) & (fabs(c) <= DBL_MAX))
+{_SIMD_DECLS}
+{fns}
+/* one step of {describe(method)}: {len(stages)} stage(s), generated from SymPy */
+{steps}
+void vp_run(int64_t N, double *x, int32_t *status, int64_t *n, int64_t n_target, double h) {{
+    int64_t nb = (N + B - 1) / B;
+    #pragma omp parallel for schedule(dynamic, 1)
+    for (int64_t b = 0; b < nb; b++) {{
+        int64_t lo = b * B;
+        int m = (int)(N - lo < B ? N - lo : B);
+        double a1[B], a2[B], a3[B];
+        int32_t st[B];
+        int64_t nn[B];
+        int redo[B];
+        int64_t nmin = n_target;
+        for (int i = 0; i < B; i++) {{
+            if (i < m) {{
+                a1[i] = x[3 * (lo + i)]; a2[i] = x[3 * (lo + i) + 1]; a3[i] = x[3 * (lo + i) + 2];
+                st[i] = status[lo + i]; nn[i] = n[lo + i];
+                if (st[i] == 0 && nn[i] < nmin) nmin = nn[i];
+            }} else {{
+                a1[i] = a2[i] = a3[i] = 0.0; st[i] = 1; nn[i] = n_target;  /* padding lane: inactive */
+            }}
+        }}
+        for (int64_t k = nmin; k < n_target; k++) {{
+            #pragma omp simd
+            for (int i = 0; i < B; i++) {{  /* vectorised: the lanes the fast pass decides */
+                double X1, X2, X3;
+                double good = vp_step_fast(a1[i], a2[i], a3[i], h, &X1, &X2, &X3);
+                int act = (st[i] == 0) & (nn[i] < n_target);
+                int ok = act & (good > 0.5);
+                a1[i] = ok ? X1 : a1[i]; a2[i] = ok ? X2 : a2[i]; a3[i] = ok ? X3 : a3[i];
+                nn[i] += ok;
+                redo[i] = act & !(good > 0.5);
+            }}
+            int any = 0;
+            for (int i = 0; i < B; i++) any |= redo[i];
+            /* the others, exactly (status, frozen on failure); the guard matters: gcc vectorises
+               this loop with masks, i.e. it costs a full step of the block when entered */
+            if (any) for (int i = 0; i < B; i++) {{
+                if (!redo[i]) continue;
+                double X1, X2, X3;
+                int code = vp_step_exact(a1[i], a2[i], a3[i], h, &X1, &X2, &X3);
+                int inok = _VP_FINITE(a1[i], a2[i], a3[i]), fin = _VP_FINITE(X1, X2, X3);
+                code = !inok ? {nf} : code ? code : fin ? 0 : {nf};
+                if (code == 0) {{ a1[i] = X1; a2[i] = X2; a3[i] = X3; nn[i] += 1; }}
+                else st[i] = code;
+            }}
+        }}
+        for (int i = 0; i < m; i++) {{
+            x[3 * (lo + i)] = a1[i]; x[3 * (lo + i) + 1] = a2[i]; x[3 * (lo + i) + 2] = a3[i];
+            status[lo + i] = st[i]; n[lo + i] = nn[i];
+        }}
+    }}
+}}
+"""

@@ -1,0 +1,171 @@
+"""What a class supplies to the native backend: its generating map as SymPy expressions.
+
+:class:`MapStage` is one solve of ((σ, Σ)·f^s_{φ,Φ})(x) (eq:volpot, :class:`vpforms.GeneratingMap`)
+at a symbolic step ``h``: φ(Y₃, y₂, y₃), Φ(Y₃, Y₂, y₃) in the generic symbols of
+:mod:`vpforms.symbolic._symbols`, the case, the sign, the Newton controls, and the field a(x) whose
+Euler guess x + h a(x) starts the solves (the guess of every non-DL method; relabelling and
+adjunction leave it unchanged, see :meth:`MapStage.relabel`).
+
+:func:`class_stage` builds it for the representative methods whose potentials are symbolic:
+
+* SE+SE (eq:case5): φ = y₂Y₃ + hF¹(y₃, y₂, Y₃), Φ = y₃Y₂ + hF³(y₃, Y₂, Y₃) from the field's
+  closed-form SE potentials (``Field.se_potential_exprs``);
+* S1, S2 on linear fields: the SymPy recipes of :mod:`vpforms.symbolic.recipes` (the ones the JAX
+  methods lambdify) with the matrix entries substituted;
+
+and S1/S2 on nonlinear fields, Quispel's correction maps, as a :class:`CorrectionStage` (three
+scalar equations, not a generating map) when the correction integral has a closed form; otherwise
+the reason why not (DL classes: L_d has no closed form; a quadrature correction).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import Any
+
+import sympy as sp
+
+from ...._case import Case
+from ....symbolic import _symbols as G
+from ....symbolic.recipes import flip_generic
+
+__all__ = ["CORR_S", "CorrectionStage", "MapStage", "RK4Stage", "class_stage", "symbolic_reason"]
+
+
+@dataclass(frozen=True)
+class RK4Stage:
+    """One classical RK4 step of ``field`` (explicit; no adjoint is generated)."""
+
+    field: Any
+
+
+@dataclass(frozen=True)
+class MapStage:
+    """X = ((σ, Σ)·f^s_{φ,Φ})(x) at step h (see the module docstring)."""
+
+    phi: sp.Expr  # in G.Y[2], G.y[1], G.y[2], G.h
+    Phi: sp.Expr  # in G.Y[2], G.Y[1], G.y[2], G.h
+    case: Case
+    sign: int
+    newton: tuple[float, int, float]  # (tol, max_iter, twist_tol)
+    field_exprs: tuple  # a(x) in G.x: the Euler guess is x + h a(x)
+
+    def relabel(self, pi) -> "MapStage":
+        """(π, π)·map = (π∘σ, π∘Σ)·f (prop:permactalg); the guess x + h a(x) in the original
+        coordinates: a_i(x) = ã_{π⁻¹(i)}(x·π) for the relabelled field ã the base was built on."""
+        idx, inv = pi.index, pi.inverse().index
+        sub = {G.x[j]: G.x[idx[j]] for j in range(3)}
+        a = tuple(sp.sympify(self.field_exprs[inv[i]]).xreplace(sub) for i in range(3))
+        return replace(self, case=self.case.relabel(pi), field_exprs=a)
+
+    def adjoint(self) -> "MapStage":
+        """The map of Ψ*_h = (Ψ_{−h})⁻¹: the inverse (prop:permactvolpotinv: (Σ, σ)·f_{Φ·p, φ·p},
+        same sign) of the map at −h. The Euler guess x + h a(x) of the adjoint is unchanged."""
+        phi, Phi = (sp.sympify(e).xreplace({G.h: -G.h}) for e in (self.phi, self.Phi))
+        nphi, nPhi = flip_generic(phi, Phi)
+        return replace(self, phi=nphi, Phi=nPhi, case=self.case.switched())
+
+
+@dataclass(frozen=True)
+class CorrectionStage:
+    """Quispel's correction map (t5vp / t5vps2, :class:`vpforms._methods.correction.QuispelCorrection`)
+    as its three scalar equations in sequence, with the closed-form correction antiderivative W:
+    X = Ψ(x·π)·π⁻¹ where Ψ is the map at ``hsign``·h, or its inverse (``inverse``)."""
+
+    a: tuple  # the field a(x) in G.x (of the field the correction map was built on)
+    W: sp.Expr  # W(x_i, s, x_k, h) in G.x[i], CORR_S, G.x[k], G.h
+    roles: tuple[int, int, int]  # (i, j, k), 0-based
+    newton: tuple[float, int, float]
+    inverse: bool = False
+    hsign: int = 1
+    pi: Any = None  # conjugation π (None: identity)
+
+    def relabel(self, pi) -> "CorrectionStage":
+        """(π, π)·Ψ: X = Ψ((x·π)·ρ)·ρ⁻¹·π⁻¹ = Ψ(x·(π∘ρ))·(π∘ρ)⁻¹ for the stage's own ρ."""
+        return replace(self, pi=pi if self.pi is None else pi * self.pi)
+
+    def adjoint(self) -> "CorrectionStage":
+        """Ψ*_h = (Ψ_{−h})⁻¹ (the conjugation stays)."""
+        return replace(self, inverse=not self.inverse, hsign=-self.hsign)
+
+
+#: the integration variable of :attr:`CorrectionStage.W`
+CORR_S = sp.Symbol("s_corr")
+
+
+def symbolic_reason(field: Any) -> str | None:
+    """None if ``field`` has SymPy expressions without free parameters, else why not."""
+    if getattr(field, "exprs", None) is None or getattr(field, "symbols", None) is None:
+        return "field was given as a JAX callable; build it with Field.from_sympy"
+    free = set().union(*(sp.sympify(e).free_symbols for e in field.exprs))
+    if not free <= set(field.symbols):
+        return f"field has unsubstituted parameters {sorted(map(str, free - set(field.symbols)))}"
+    return None
+
+
+def _to_x(field, exprs):
+    """Expressions of ``field.symbols`` → the canonical symbols x1, x2, x3."""
+    sub = dict(zip(field.symbols, G.x))
+    return tuple(sp.sympify(e).xreplace(sub) for e in exprs)
+
+
+def _newton(m) -> tuple[float, int, float]:
+    n = m.newton
+    return float(n["tol"]), int(n["max_iter"]), float(n["twist_tol"])
+
+
+def class_stage(m: Any) -> MapStage | str:
+    """The generating map of the representative method ``m`` (bare), or why it is not generated."""
+    from ...._methods._linear import LinearRecipeMethod
+    from ...._methods.correction import QuispelCorrection
+    from ...._methods.dl_dl import DLDL
+    from ...._methods.se_dl import SEDL
+    from ...._methods.se_se import SESE
+
+    name = getattr(m, "name", type(m).__name__)
+    if isinstance(m, (DLDL, SEDL)):
+        return (f"{name}: the DL potentials are discrete Lagrangians L_d, defined through an inner "
+                "Newton solve for p̄ (no SymPy expression); nested solves are not generated "
+                "natively")
+    field = getattr(m, "field", None)
+    why = symbolic_reason(field)
+    if why:
+        return why
+    a = _to_x(field, field.exprs)
+    if isinstance(m, QuispelCorrection):
+        return _correction_stage(m, a)
+    if isinstance(m, SESE):
+        if field.se_potential_exprs is None:
+            return "SE potentials have no closed form (quadrature); native needs symbolic potentials"
+        F1, F3 = _to_x(field, field.se_potential_exprs)
+        Y3, Y2, y2, y3, h = G.Y[2], G.Y[1], G.y[1], G.y[2], G.h
+        # generic arguments (MATH.md §2): φ(Y₃, y₂, y₃) = φ(X₃, x₂, x₁), Φ(Y₃, Y₂, y₃) = Φ(X₃, X₂, x₁)
+        phi = y2 * Y3 + h * F1.xreplace({G.x[0]: y3, G.x[1]: y2, G.x[2]: Y3})
+        Phi = y3 * Y2 + h * F3.xreplace({G.x[0]: y3, G.x[1]: Y2, G.x[2]: Y3})
+    elif isinstance(m, LinearRecipeMethod):
+        gen = m.recipe.generic()
+        coeffs = {s: sp.Float(v, 17) if v != 0 else sp.Integer(0)
+                  for s, v in zip((G.A[i, j] for i in range(3) for j in range(3)), m._coeffs)}
+        phi, Phi = gen.phi.xreplace(coeffs), gen.Phi.xreplace(coeffs)
+    else:
+        return f"{name} is not generated natively (no symbolic generating map for its class)"
+    extra = (phi.free_symbols | Phi.free_symbols) - {G.Y[2], G.Y[1], G.y[1], G.y[2], G.h}
+    if extra:
+        return f"{name}: potentials have unsubstituted parameters {sorted(map(str, extra))}"
+    return MapStage(phi, Phi, m.case, m.case.sign, _newton(m), a)
+
+
+def _correction_stage(m, a) -> CorrectionStage | str:
+    from ...._methods.correction import correction_antiderivative
+
+    found = None if m._fc_closed is None else correction_antiderivative(m.field, m.roles)
+    if found is None:
+        return (f"{m.name}: the correction integral f_c is a quadrature for this field (its "
+                "integrand is not polynomial in s); native needs the closed form")
+    W, (s, h) = found
+    i, _, k = m.roles
+    W = _to_x(m.field, [W])[0].xreplace({s: CORR_S, h: G.h})
+    extra = W.free_symbols - {G.x[i], G.x[k], CORR_S, G.h}
+    if extra:
+        return f"{m.name}: correction has unsubstituted parameters {sorted(map(str, extra))}"
+    return CorrectionStage(a, W, tuple(m.roles), _newton(m))
