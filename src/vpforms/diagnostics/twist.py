@@ -139,6 +139,26 @@ def _statuses(method, pts: np.ndarray, h: float) -> np.ndarray:
     return np.where((st == RESULTS.successful) & bad, RESULTS.nonfinite, st).astype(np.int32)
 
 
+#: bare candidate methods per (field, candidate, options): a repeated twist map (a run's summary,
+#: then its explain, the CLI hint) reuses their compiled steps instead of compiling again
+_CANDIDATES: dict = {}
+
+
+def _candidate(f, c, options):
+    from .._methods.scheme import scheme
+
+    key = (id(f), c if isinstance(c, str) else (c.sigma.one_line(), c.Sigma.one_line()),
+           repr(sorted(options.items())))
+    hit = _CANDIDATES.get(key)
+    if hit is not None and hit[0] is f:
+        return hit[1]
+    m = scheme(f, c, recover=False, **options)
+    if len(_CANDIDATES) > 256:  # bounded: fields made in a loop do not pile up
+        _CANDIDATES.clear()
+    _CANDIDATES[key] = (f, m)
+    return m
+
+
 def _row(label, cls, case, st: np.ndarray, own=False) -> TwistRow:
     n = st.size
     counts = {int(c): int(np.count_nonzero(st == c)) for c in np.unique(st)}
@@ -173,7 +193,6 @@ def twist_map(method_or_field: Any, points: Any, h: float = 0.1, cases: Any = "c
     """
     from .._errors import VPFormsError
     from .._integrate import describe
-    from .._methods.scheme import scheme
 
     f, method = _field_of(method_or_field)
     pts = np.asarray(points, dtype=np.float64)
@@ -198,7 +217,7 @@ def twist_map(method_or_field: Any, points: Any, h: float = 0.1, cases: Any = "c
     for c in _candidates(cases):
         label = _label(c)
         try:
-            m = scheme(f, c, recover=False, **options)
+            m = _candidate(f, c, options)
         except (VPFormsError, ValueError) as exc:  # the recipe does not apply (e.g. RecipeError)
             cls = c if isinstance(c, str) else c.cls
             rows.append(TwistRow(label, cls, None if isinstance(c, str) else c, math.nan, math.nan,
