@@ -137,7 +137,15 @@ class Solution:
         The run's parameters.
     stats:
         ``wall_s`` (excluding nothing: compile included), ``n_chunks``, ``chunk_size``,
-        ``ns_per_particle_step``.
+        ``ns_per_particle_step``, ``recovered_how`` (recovered steps by alternative, issue #12).
+    recovered:
+        Per-particle number of steps that failed bare and were recovered (issue #12).
+    method_object:
+        The method that ran (not saved): :meth:`explain` uses it for its hint.
+
+    :meth:`summary` and :meth:`explain` give the failures by reason ("163 twist condition failed,
+    8 non-finite"), the first failed particles with their steps, and a hint computed from the
+    failed steps (:func:`vpforms.diagnostics.explain_failures`).
     """
 
     ts: np.ndarray

@@ -58,7 +58,7 @@ class SubstepLadder(Method):
     def adjoint(self) -> Method:
         return SubstepLadder(self.base.adjoint(), self.k)
 
-    def without_recovery(self) -> Method:
+    def _strip_recovery(self) -> Method:
         bare = self.base.without_recovery()
         return self if bare is self.base else SubstepLadder(bare, self.k)
 
@@ -123,7 +123,7 @@ class Recovering(Method):
             raise AttributeError(item)
         return getattr(self.__dict__["bare"], item)
 
-    def without_recovery(self) -> Method:
+    def _strip_recovery(self) -> Method:
         return self.bare.without_recovery()
 
     def adjoint(self) -> Method:
