@@ -109,3 +109,4 @@ def log_det(
 
     if single:
         return LogDet(ts, per[0], acc[0], status[0], describe(method))
+    return LogDet(ts, per, acc, status, describe(method))
