@@ -25,4 +25,4 @@ def test_bench_recovery_smoke(tmp_path):
     assert "Ratio recovering / bare" in text
     rows = [line for line in text.splitlines() if line.startswith("| 0.1 |")]
     assert len(rows) == 2  # tokamak h = 0.1: bare and recovering
-    assert sum(line.startswith("| DL+DL") for line in text.splitlines()) == 9  # 3 methods × 3 rows
+    assert sum(line.startswith("| DL+DL") for line in text.splitlines()) == 12  # 3 methods × 4 rows
