@@ -19,9 +19,10 @@ instead of O(h⁵).  With a fraction f of switched steps roughly independent of 
 ≈ f·(T/h)·O(h²) = O(f h) to the global error, so the observed order falls towards 1 once that term
 dominates.  Measured on tokamak (20 field lines, T = 4, h = 0.2 … 0.0125, benchmarks/
 results_recovery.md): DL+DL 1.19 (0.03–0.19 % switched), its order-2 composition 1.95 (0.2–0.5 %),
-its order-4 composition 1.56 (0–0.73 % switched; errors 3.6e-4 … 3.9e-5 against ≈ h⁴ for the
-lines that never switch).  Where order matters, use a smaller h or a class whose twist holds
-(:func:`vpforms.diagnostics.twist_map`), and read ``Solution.recovered``.
+its order-4 composition 1.56 (0–0.73 % switched; max error 3.0e-4 … 3.9e-5 for h = 0.1 … 0.0125,
+while over the lines none of whose steps switched it is 2.2e-5, 1.2e-6, 5.9e-8, 3.3e-9: order ≈ 4.2).
+The loss of order comes from the switched steps only.  Where order matters, use a smaller h or a
+class whose twist holds (:func:`vpforms.diagnostics.twist_map`), and read ``Solution.recovered``.
 
 Cost: the decision is made once per BATCH. ``_batched_step`` runs the bare step on all points
 (vmap), then ``lax.cond(any(status != 0), recover, identity)`` with an unbatched predicate: when
