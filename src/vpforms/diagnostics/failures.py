@@ -192,9 +192,9 @@ def _hint_text(method, bare, recovery_off, h, smaller, smaller_ok, tm, cli) -> s
                      "with other cases, other classes and VP sub-steps)")
     if h is not None and smaller is not None:
         parts.append((f"try --h {smaller:g}" if cli else f"try h = {smaller:g}")
-                     + f" (every failed step succeeds at that step size)")
+                     + " (every failed step succeeds at that step size)")
     elif h is not None and smaller_ok is not None:
-        parts.append((f"a smaller --h helps only partly" if cli else "a smaller h helps only partly")
+        parts.append(("a smaller --h helps only partly" if cli else "a smaller h helps only partly")
                      + f" (at h = {h / 2**_HALVINGS:g} still only {_pct(smaller_ok)} of the failed "
                        "steps succeed: at the others this case's twist fails whatever the step)")
     elif h is not None:
