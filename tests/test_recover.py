@@ -60,3 +60,15 @@ def test_integrate_with_recovery_freezes_fewer_and_is_chunk_independent(abc):
     assert a.recovered.sum() > 0
     assert np.array_equal(a.xs, c.xs) and np.array_equal(a.recovered, c.recovered)
     assert "recovered steps" in a.summary()
+
+
+def test_without_recovery_is_the_same_object_every_time(abc):
+    """integrate keys its compiled kernel by the bare method's identity: a new stripped object per
+    call would recompile the whole run every time (a composition of a recovering scheme did)."""
+    f, bare, rec, x = abc
+    for m in (rec, vpforms.compose(rec, 2), vpforms.compose(rec, 4), rec.adjoint(),
+              vpforms.scheme(f, vpforms.Case((1, 2, 3), (1, 3, 2)))):
+        a, b = m.without_recovery(), m.without_recovery()
+        assert a is b and a.without_recovery() is a
+    c = vpforms.compose(rec, 4)
+    assert c.without_recovery().base.base is rec.without_recovery()

@@ -55,6 +55,13 @@ class RESULTS:
         not_converged: "Newton iteration did not converge",
         nonfinite: "non-finite input or result (NaN/inf)",
     }
+    #: short reason names for counts ("163 twist condition failed, 8 non-finite")
+    short = {
+        successful: "succeeded",
+        twist_failure: "twist condition failed",
+        not_converged: "Newton not converged",
+        nonfinite: "non-finite",
+    }
     errors = {
         twist_failure: TwistConditionError,
         not_converged: ConvergenceError,

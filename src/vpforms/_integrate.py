@@ -25,7 +25,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import partial
 from typing import Any
 
@@ -137,7 +137,15 @@ class Solution:
         The run's parameters.
     stats:
         ``wall_s`` (excluding nothing: compile included), ``n_chunks``, ``chunk_size``,
-        ``ns_per_particle_step``.
+        ``ns_per_particle_step``, ``recovered_how`` (recovered steps by alternative, issue #12).
+    recovered:
+        Per-particle number of steps that failed bare and were recovered (issue #12).
+    method_object:
+        The method that ran (not saved): :meth:`explain` uses it for its hint.
+
+    :meth:`summary` and :meth:`explain` give the failures by reason ("163 twist condition failed,
+    8 non-finite"), the first failed particles with their steps, and a hint computed from the
+    failed steps (:func:`vpforms.diagnostics.explain_failures`).
     """
 
     ts: np.ndarray
@@ -153,6 +161,8 @@ class Solution:
     stats: dict = field(default_factory=dict)
     #: per-particle number of steps that failed bare and were recovered (issue #12)
     recovered: np.ndarray | None = None
+    #: the method object that ran (for :meth:`explain`'s hint); not saved, not compared
+    method_object: Any = field(default=None, repr=False, compare=False)
 
     @property
     def x_final(self) -> np.ndarray:
@@ -171,15 +181,35 @@ class Solution:
         """Raise the named :class:`vpforms.VPFormsError` if any particle failed."""
         raise_for_status(self.status, what=f"integrate({self.method})")
 
-    def summary(self) -> dict[str, Any]:
-        """A flat dictionary for printing: counts, times, failures by code."""
+    def explain(self, method: Any = None, hint: bool = True, cli: bool = False, max_shown: int = 5):
+        """Why particles failed: a :class:`vpforms.diagnostics.FailureReport` (issue #12).
+
+        The breakdown by reason with counts, the first failed particles and their steps, and —
+        with the method (default: the one :func:`integrate` ran, :attr:`method_object`) — a hint
+        computed from the failed steps: the states where they failed are the frozen states, so
+        the steps are retaken there at smaller h and :func:`vpforms.diagnostics.twist_map` says
+        which class's twist condition holds there.
+        """
+        from .diagnostics.failures import explain_failures
+
+        m = self.method_object if method is None else method
+        cache = self.__dict__.setdefault("_explained", {})  # summary() then explain(): computed once
+        key = (id(m), bool(hint), bool(cli), int(max_shown))
+        if key not in cache or cache[key][0] is not m:
+            cache[key] = (m, explain_failures(self.status, self.failed_step, points=self.x_final, method=m,
+                                              h=self.h, hint=hint, cli=cli, max_shown=max_shown))
+        return cache[key][1]
+
+    def summary(self, hint: bool = True) -> dict[str, Any]:
+        """A flat dictionary for printing: counts, times, failures by reason (and a hint, see
+        :meth:`explain`; ``hint=False`` skips its computation)."""
         st = np.atleast_1d(self.status)
         fails = {
             RESULTS.messages[int(c)]: int(np.count_nonzero(st == c))
             for c in np.unique(st)
             if c != RESULTS.successful
         }
-        return {
+        out = {
             "method": self.method,
             "particles": int(st.size),
             "h": self.h,
@@ -187,12 +217,17 @@ class Solution:
             "t_final": float(self.ts[-1]),
             "saved states": int(self.ts.size),
             "failed particles": int(np.count_nonzero(st != RESULTS.successful)),
-            **({"failures": fails} if fails else {}),
-            **({"first failed": [(int(i), int(np.atleast_1d(self.failed_step)[i]))
-                                 for i in np.flatnonzero(st != RESULTS.successful)[:5]]} if fails else {}),
-            **({"recovered steps": int(np.sum(self.recovered))} if self.recovered is not None else {}),
-            **self.stats,
         }
+        if fails:
+            rep = self.explain(hint=hint)
+            out["failures"] = fails
+            out["failure breakdown"] = rep.breakdown
+            out["first failed"] = list(rep.first)
+            if rep.hint:
+                out["hint"] = rep.hint
+        if self.recovered is not None:
+            out["recovered steps"] = int(np.sum(self.recovered))
+        return {**out, **self.stats}
 
     def save(self, path: str) -> None:
         """Write an ``.npz`` with ts, steps, xs, status, failed_step and the run parameters."""
@@ -499,7 +534,8 @@ def integrate(
 
         if chunk_size is not None and int(chunk_size) < 1:  # the same check as the JAX path
             raise ValueError(f"chunk_size must be ≥ 1, got {chunk_size}")
-        return integrate_native(method, pts, single, h, n_steps, save_every, t0, progress, backend_reason)
+        sol = integrate_native(method, pts, single, h, n_steps, save_every, t0, progress, backend_reason)
+        return replace(sol, method_object=method)
     N = pts.shape[0]
     if save_every is None:
         # only x0 and the final state are kept: fixed blocks (32 steps, 8 per call) so that every
@@ -586,6 +622,7 @@ def integrate(
     ts = t0 + h * steps.astype(np.float64)
     if single:
         return Solution(ts, steps, xs[0], status[0], failed[0], describe(method), h, n_steps, save_every, t0, stats,
-                        int(recovered[0]))
-    return Solution(ts, steps, xs, status, failed, describe(method), h, n_steps, save_every, t0, stats, recovered)
+                        int(recovered[0]), method)
+    return Solution(ts, steps, xs, status, failed, describe(method), h, n_steps, save_every, t0, stats, recovered,
+                    method)
 

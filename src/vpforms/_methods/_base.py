@@ -175,7 +175,18 @@ class Method(ABC):
         return X, status, rec
 
     def without_recovery(self) -> "Method":
-        """The same method with recovery stripped at every level (``self`` for a bare method)."""
+        """The same method with recovery stripped at every level (``self`` for a bare method).
+
+        Memoised: the same object on every call, so that its compiled steps (keyed by the method's
+        identity, e.g. in :func:`vpforms.integrate`) are reused from run to run."""
+        memo = self.__dict__.get("_without_recovery")
+        if memo is None:
+            memo = self._strip_recovery()
+            self.__dict__["_without_recovery"] = memo
+        return memo
+
+    def _strip_recovery(self) -> "Method":
+        """Build :meth:`without_recovery` (subclasses that wrap other methods override this)."""
         return self
 
     def step(self, x: Any, h: Any) -> jax.Array:
@@ -343,7 +354,7 @@ class Relabelled(Method):
         self._pi_idx = jnp.asarray(self.pi.index)
         self._pi_inv_idx = jnp.asarray(self.pi.inverse().index)
 
-    def without_recovery(self) -> Method:
+    def _strip_recovery(self) -> Method:
         bare = self.base.without_recovery()
         return self if bare is self.base else Relabelled(bare, self.pi, self.field)
 
@@ -390,7 +401,7 @@ class Adjoint(Method):
     def adjoint(self) -> Method:
         return self.base
 
-    def without_recovery(self) -> Method:
+    def _strip_recovery(self) -> Method:
         bare = self.base.without_recovery()
         return self if bare is self.base else bare.adjoint()
 

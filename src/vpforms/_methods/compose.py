@@ -84,7 +84,7 @@ class SymmetricPair(Method):
         X, s2, n2, r2 = self.adj._batched_step(y, h / 2)
         return X, _merge(s1, s2), n1 + n2, jnp.maximum(r1, r2)
 
-    def without_recovery(self) -> Method:
+    def _strip_recovery(self) -> Method:
         bare = self.base.without_recovery()
         return self if bare is self.base else SymmetricPair(bare)
 
@@ -130,7 +130,7 @@ class Composition(Method):
         (X, st, n, r), _ = lax.scan(body, (x, z, z, z), self._g)
         return X, st, n, r
 
-    def without_recovery(self) -> Method:
+    def _strip_recovery(self) -> Method:
         bare = self.base.without_recovery()
         if bare is self.base:
             return self

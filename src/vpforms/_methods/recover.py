@@ -10,6 +10,20 @@ volume preserving):
 
 Only then does the step report the bare failure (``integrate`` freezes the particle).
 
+What recovery does to the order: every alternative is a consistent VP step (another case of the
+class, another class, or sub-steps of the same method: each at least order 1), so a recovered run
+still converges and stays exactly volume preserving; but a switched step has only the local error
+of its alternative.  In a composition the recovery is per stage, so a switched stage of an
+order-4 composition is an order-1 map (Ψ*_c ∘ Ψ_{c'} is no longer symmetric): local error O(h²)
+instead of O(h⁵).  With a fraction f of switched steps roughly independent of h, they add
+≈ f·(T/h)·O(h²) = O(f h) to the global error, so the observed order falls towards 1 once that term
+dominates.  Measured on tokamak (20 field lines, T = 4, h = 0.2 … 0.0125, benchmarks/
+results_recovery.md): DL+DL 1.19 (0.03–0.19 % switched), its order-2 composition 1.95 (0.2–0.5 %),
+its order-4 composition 1.56 (0–0.73 % switched; max error 3.0e-4 … 3.9e-5 for h = 0.1 … 0.0125,
+while over the lines none of whose steps switched it is 2.2e-5, 1.2e-6, 5.9e-8, 3.3e-9: order ≈ 4.2).
+The loss of order comes from the switched steps only.  Where order matters, use a smaller h or a
+class whose twist holds (:func:`vpforms.diagnostics.twist_map`), and read ``Solution.recovered``.
+
 Cost: the decision is made once per BATCH. ``_batched_step`` runs the bare step on all points
 (vmap), then ``lax.cond(any(status != 0), recover, identity)`` with an unbatched predicate: when
 no step fails nothing else runs. Inside ``recover`` the failing points are gathered into buffers
@@ -58,7 +72,7 @@ class SubstepLadder(Method):
     def adjoint(self) -> Method:
         return SubstepLadder(self.base.adjoint(), self.k)
 
-    def without_recovery(self) -> Method:
+    def _strip_recovery(self) -> Method:
         bare = self.base.without_recovery()
         return self if bare is self.base else SubstepLadder(bare, self.k)
 
@@ -123,7 +137,7 @@ class Recovering(Method):
             raise AttributeError(item)
         return getattr(self.__dict__["bare"], item)
 
-    def without_recovery(self) -> Method:
+    def _strip_recovery(self) -> Method:
         return self.bare.without_recovery()
 
     def adjoint(self) -> Method:

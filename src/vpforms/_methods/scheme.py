@@ -99,6 +99,10 @@ def scheme(field: Any, case: Case | str | tuple = "SE+SE", **options) -> Method:
     ``recover=True`` (default): where the step fails, other cases of the class, then other classes,
     then 2…2^``recover_substeps`` sub-steps are tried (``vpforms._methods.recover``);
     ``recover=False`` is the bare method. ``recover_classes=False`` skips the other classes.
+    A recovered step is still an exactly VP, consistent step (order ≥ 1), but only as accurate as
+    the alternative taken: where steps switch, the observed order falls towards 1 (measured on
+    tokamak: DL+DL composed to order 4 shows slope 1.56 with 0.25–0.73 % switched steps, ≈ 4 on
+    the lines that never switched; see ``vpforms._methods.recover``). ``Solution.recovered`` counts the switched steps per particle.
     """
     if not (callable(field) and hasattr(type(field), "se_potentials") and hasattr(type(field), "dl_potentials")):
         raise TypeError(f"scheme needs a vpforms.Field (e.g. vpforms.problems.get('abc').field), "

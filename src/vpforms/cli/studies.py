@@ -74,8 +74,11 @@ def _cmd_order(args, console) -> int:
     return 0
 
 
-def _drift_panels(prob, method, h, steps, n_particles, seed, console, label=None):
-    """Volume (and invariant) drift of ``method`` and RK4 along the same orbits."""
+def _drift_panels(prob, method, h, steps, n_particles, seed, console, label=None, failures=None):
+    """Volume (and invariant) drift of ``method`` and RK4 along the same orbits.
+
+    ``failures`` (a dict), when given, receives label → (method, x0, per-orbit status) for every
+    method with failed orbits (to explain them, issue #12)."""
     import numpy as np
 
     from .._integrate import RK4, integrate
@@ -92,6 +95,8 @@ def _drift_panels(prob, method, h, steps, n_particles, seed, console, label=None
         vol[label] = (ld.ts, np.abs(ld.accumulated))
         # a failed orbit's log det stops at its failure: say how many, next to the maximum
         stats[label] = {"max |log det|": ld.max_abs, "failed orbits": ld.n_failed}
+        if failures is not None and ld.n_failed:
+            failures[label] = (m, x0, ld.status)
         if prob.invariants:
             sol = integrate(m, x0, h, steps, save_every=max(1, steps // 200), progress="auto")
             for name, d in invariant_drift(prob.invariants, sol.xs).items():
@@ -109,7 +114,9 @@ def _cmd_drift(args, console) -> int:
     _check_out(args.png)
     prob = _problem(args)
     method = _method_from_args(args, prob.field)
-    panels, stats = _drift_panels(prob, method, args.h, args.steps, args.particles, args.seed, console)
+    failures: dict = {}
+    panels, stats = _drift_panels(prob, method, args.h, args.steps, args.particles, args.seed, console,
+                                  failures=failures)
     plots.drift_figure(panels, title=f"Drift on {prob.name}, h = {args.h:g}: vpforms vs RK4", path=args.png)
     t = Table(title=f"drift on {prob.name}, h = {args.h:g}, {args.steps} steps, {args.particles} orbits")
     keys = list(next(iter(stats.values())))
@@ -120,6 +127,10 @@ def _cmd_drift(args, console) -> int:
         t.add_row(label, *[str(row[k]) if isinstance(row[k], int) else f"{row[k]:.3e}" for k in keys])
     console.print(t)
     console.print(f"figure: {args.png}", soft_wrap=True)
+    from ._explain import explain_rerun
+
+    for label, (m, x0, status) in failures.items():  # why orbits failed, with a hint (issue #12)
+        explain_rerun(console, status, m, x0, args.h, args.steps, f"failed orbits of {label}")
     return 0
 
 

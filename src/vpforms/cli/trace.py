@@ -6,6 +6,7 @@ import math
 import time
 
 from . import _distributed
+from ._explain import explain_rerun, explain_solution
 from ._common import (
     CLIError,
     _add_method_args,
@@ -58,10 +59,7 @@ def _cmd_run(args, console) -> int:
             rows[f"max |Δ {name}|"] = f"{float(np.max(np.abs(d))):.3e}"
     console.print(_summary_table("vpforms run", rows))
     console.print(f"written: {args.out}", soft_wrap=True)
-    if sol.n_failed:
-        idx = np.flatnonzero(np.atleast_1d(sol.status))
-        console.print(f"[yellow]{sol.n_failed} particle(s) failed and were frozen; first: "
-                      f"{idx[:5].tolist()} at steps {np.atleast_1d(sol.failed_step)[idx[:5]].tolist()}")
+    explain_solution(console, sol, method)  # breakdown by reason, first failures, hint (issue #12)
     return 0
 
 
@@ -105,6 +103,7 @@ def _cmd_poincare(args, console) -> int:
         "wall time (s)": round(wall, 2),
     }))
     console.print(f"figure: {args.png}\ncrossings CSV: {args.csv}", soft_wrap=True)
+    explain_rerun(console, sec.status, method, x0, args.h, args.steps, "failed orbits")
     return 0
 
 

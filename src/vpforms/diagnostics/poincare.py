@@ -1,0 +1,320 @@
+"""Poincaré sections: non-terminating plane crossings located on the method's own step family."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import partial
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jax import lax
+
+from .. import _config  # noqa: F401
+from .._errors import RESULTS
+from .._integrate import _Bar, _check_run, _StepFn, auto_chunk_size
+from ._common import _chunks, _pad
+
+__all__ = ["PoincareSection", "poincare_section"]
+
+
+@dataclass(frozen=True)
+class PoincareSection:
+    """Crossings of the plane x_axis = value (+ k·period) in the chosen direction.
+
+    ``points`` (M, 3) the crossing points (lifted coordinates: not reduced modulo the period);
+    ``particle`` (M,) the particle index; ``step`` (M,) the step n with the crossing in
+    [t_n, t_{n+1}]; ``theta`` (M,) its fraction of the step; ``t`` (M,) the crossing time
+    t0 + (n + θ)h; ``counts`` (N,) crossings detected per particle (including the ``dropped`` ones
+    not kept: beyond ``max_crossings`` or a full segment buffer); ``interpolation`` and
+    ``interpolation_order`` say how they were located; ``fallback`` (M,) marks the crossings that
+    ``interpolation="step"`` could not locate on the step family (a failed sub-step) and that are
+    the chord point instead (order 1, not on the plane): ``n_fallback`` counts them.
+    """
+
+    points: np.ndarray
+    particle: np.ndarray
+    step: np.ndarray
+    theta: np.ndarray
+    t: np.ndarray
+    counts: np.ndarray
+    dropped: int
+    axis: int
+    value: float
+    direction: int
+    period: float | None
+    interpolation: str
+    interpolation_order: str
+    method: str
+    status: np.ndarray
+    fallback: np.ndarray
+
+    @property
+    def n_fallback(self) -> int:
+        """Crossings located by the chord because the step family failed (see ``fallback``)."""
+        return int(np.count_nonzero(self.fallback))
+
+    @property
+    def plane_axes(self) -> tuple[int, int]:
+        """The two in-plane coordinates (0-based), in increasing order."""
+        a, b = [i for i in range(3) if i != self.axis]
+        return a, b
+
+    def coordinates(self, wrap: bool | None = None) -> np.ndarray:
+        """(M, 2) in-plane coordinates; reduced to [0, period) when wrap (default: period given)."""
+        a, b = self.plane_axes
+        uv = self.points[:, [a, b]]
+        if (self.period is not None) if wrap is None else wrap:
+            uv = np.mod(uv, self.period)
+        return uv
+
+    def to_csv(self, path: str) -> None:
+        """Write particle, step, theta, t, x1, x2, x3 (lifted) and the two in-plane coordinates."""
+        a, b = self.plane_axes
+        uv = self.coordinates()
+        header = f"particle,step,theta,t,x1,x2,x3,u_x{a + 1},v_x{b + 1}"
+        data = np.column_stack([self.particle, self.step, self.theta, self.t, self.points, uv])
+        fmt = ["%d", "%d", "%.17g", "%.17g"] + ["%.17g"] * 5
+        np.savetxt(path, data, delimiter=",", header=header, comments="", fmt=fmt)
+
+
+def _levels(s, P):
+    """Integer level index of a plane coordinate s = x_axis − value (floor(s/P), or s ≥ 0)."""
+    return jnp.floor(s / P) if P is not None else (s >= 0).astype(jnp.float64)
+
+
+@partial(jax.jit, static_argnums=(0, 1, 2, 3, 4, 5))
+def _poincare_scan(step_fn, n_steps, K, axis, direction, P, x, st, count, bx, bn, bl, n0, h, value, n_stop):
+    """Scan n_steps steps from step n0 (steps ≥ n_stop skipped); record x_n, n and the crossed
+    level for each particle's first K crossings."""
+
+    def one(x, st, count, bx, bn, bl):
+        def body(carry, j):
+            n = (n0 + j).astype(jnp.int32)
+            return lax.cond(n < n_stop, lambda c: real(c, n), lambda c: c, carry), None
+
+        def real(carry, n):
+            x, st, count, bx, bn, bl = carry
+            X, s = step_fn(x, h)
+            s = jnp.where((s == RESULTS.successful) & ~jnp.all(jnp.isfinite(X)), RESULTS.nonfinite, s)
+            alive = st == RESULTS.successful
+            good = alive & (s == RESULTS.successful)
+            st = jnp.where(alive & ~good, s, st)
+            m0 = _levels(x[axis] - value, P)
+            m1 = _levels(X[axis] - value, P)
+            up, down = (m1 > m0), (m1 < m0)
+            cross = good & (up if direction > 0 else down if direction < 0 else up | down)
+            # crossed level: value + m1·P going up, value + m0·P going down (one per step)
+            lvl = value + (0.0 if P is None else P) * jnp.where(up, m1, m0)
+            i = jnp.minimum(count, K - 1)
+            w = cross & (count < K)
+            bx = bx.at[i].set(jnp.where(w, x, bx[i]))
+            bn = bn.at[i].set(jnp.where(w, n, bn[i]))
+            bl = bl.at[i].set(jnp.where(w, lvl, bl[i]))
+            count = count + cross.astype(count.dtype)
+            x = jnp.where(good, X, x)
+            return (x, st, count, bx, bn, bl)
+
+        carry, _ = lax.scan(body, (x, st, count, bx, bn, bl), jnp.arange(n_steps))
+        return carry
+
+    return jax.vmap(one)(x, st, count, bx, bn, bl)
+
+
+@partial(jax.jit, static_argnums=(0, 1, 2))
+def _refine_kernel(step_fn, axis, mode, x, lvl, h):
+    """Locate θ ∈ [0, 1] with (Ψ_{θh}(x))_axis = lvl by Illinois regula falsi; return (X, θ, fallback)
+    (fallback: the step family failed and the chord point is returned)."""
+
+    def one(x, lvl):
+        X1, _ = step_fn(x, h)
+        g0 = x[axis] - lvl
+        g1 = X1[axis] - lvl
+        th_lin = g0 / (g0 - g1)
+        if mode == "linear":  # chord of the step: O(h²) accurate
+            return x + th_lin * (X1 - x), th_lin, jnp.bool_(False)
+
+        def g(th):
+            Y, s = step_fn(x, th * h)
+            return Y[axis] - lvl, Y, s
+
+        tol = 1e-15 * (1.0 + jnp.abs(lvl))
+
+        def cond(c):
+            a, fa, b, fb, it, done = c
+            return (~done) & (it < 60)
+
+        def body(c):
+            a, fa, b, fb, it, _ = c
+            th = (a * fb - b * fa) / (fb - fa)
+            th = jnp.clip(th, jnp.minimum(a, b), jnp.maximum(a, b))
+            ft, _, _ = g(th)
+            same = jnp.sign(ft) == jnp.sign(fb)
+            # Illinois: halve the retained end's value when the same end is kept twice
+            a2, fa2 = jnp.where(same, a, b), jnp.where(same, fa * 0.5, fb)
+            done = (jnp.abs(ft) <= tol) | (jnp.abs(b - a) <= 1e-15)
+            return a2, fa2, th, ft, it + 1, done
+
+        a, fa, b, fb, it, _ = lax.while_loop(cond, body, (0.0, g0, 1.0, g1, 0, False))
+        th = jnp.where(jnp.abs(fa) < jnp.abs(fb), a, b)
+        _, Y, s = g(th)
+        ok = (s == RESULTS.successful) & jnp.all(jnp.isfinite(Y))
+        Y = jnp.where(ok, Y, x + th_lin * (X1 - x))
+        return Y.at[axis].set(jnp.where(ok, lvl, Y[axis])), jnp.where(ok, th, th_lin), ~ok
+
+    return jax.vmap(one)(x, lvl)
+
+
+def _interp_order(method: Any, interpolation: str) -> str:
+    if interpolation == "linear":
+        return "1 (chord; error O(h²))"
+    p = getattr(method, "order", None)
+    p = p if isinstance(p, int) else "p"
+    q = p + 1 if isinstance(p, int) else "p+1"
+    return f"{p} (the method's own step family; local error O(h^{q}))"
+
+
+def poincare_section(
+    method: Any,
+    x0: Any,
+    h: float,
+    n_steps: int,
+    axis: int = 2,
+    value: float = 0.0,
+    direction: int = 1,
+    period: float | None = None,
+    max_crossings: int | None = None,
+    interpolation: str = "step",
+    t0: float = 0.0,
+    chunk_size: int | None = None,
+    progress: bool | str = "auto",
+) -> PoincareSection:
+    """Non-terminating crossings of the plane x_axis = value (+ k·period) by the particles' orbits.
+
+    Parameters
+    ----------
+    axis:
+        0-based coordinate normal to the plane (0, 1, 2 for x₁, x₂, x₃).
+    value, period:
+        The plane is x_axis = value; with ``period`` P (e.g. 2π for the ABC flow) every plane
+        x_axis = value + kP counts (the orbit is not wrapped; its crossings are).
+    direction:
+        +1 counts crossings with x_axis increasing, −1 decreasing, 0 both.
+    max_crossings:
+        Keep at most this many (the first) crossings per particle; default all.  Crossings are
+        buffered per segment of ≤ 1024 steps (room for one every 4 steps) and moved to the host
+        after each segment; any not kept are counted in ``dropped``.
+    interpolation:
+        How a crossing inside the step x_n → x_{n+1} = Ψ_h(x_n) is located:
+
+        * ``"step"`` (default): the method's own continuous family θ ↦ Ψ_{θh}(x_n), θ ∈ [0, 1],
+          solved for (Ψ_{θh}(x_n))_axis = level by Illinois regula falsi (bracketed, to 1e-15).
+          The point is one step of the method of size θh, so its error is the method's local error
+          O(h^{p+1}) — interpolation of order p for a method of order p — and it lies on the plane.
+          Where a sub-step Ψ_{θh} fails, the chord point is used and flagged in ``fallback``.
+        * ``"linear"``: the chord x_n + θ(x_{n+1} − x_n), interpolation order 1 (error O(h²)).
+
+    Notes
+    -----
+    The detection runs inside the ``lax.scan`` of the orbit (device memory O(chunk · 256) per
+    segment, independent of n_steps); the location runs afterwards, batched over all crossings.
+    """
+    if axis not in (0, 1, 2):
+        raise ValueError(f"axis must be 0, 1 or 2 (0-based), got {axis}")
+    if direction not in (-1, 0, 1):
+        raise ValueError(f"direction must be -1, 0 or +1, got {direction}")
+    if interpolation not in ("step", "linear"):
+        raise ValueError(f"interpolation must be 'step' or 'linear', got {interpolation!r}")
+    if period is not None and not (period > 0 and math.isfinite(period)):
+        raise ValueError(f"period must be a positive number, got {period}")
+    pts, _, h, n_steps = _check_run(method, x0, h, n_steps, t0)
+    if not math.isfinite(float(value)):
+        raise ValueError(f"value must be a finite number, got {value}")
+    N = pts.shape[0]
+    # segments of ≤ 1024 steps (≥ ~20 per chunk for a live bar); the crossing buffers are emptied
+    # to the host after every segment, so memory does not grow with n_steps
+    seg = max(1, min(n_steps, -(-n_steps // 20), 1024))
+    K = seg // 4 + 8  # buffer per particle and segment: a crossing every ≤ 4 steps still fits
+    cap = None if max_crossings is None else int(max_crossings)
+    if cap is not None and cap < 0:
+        raise ValueError(f"max_crossings must be ≥ 0, got {max_crossings}")
+    C = min(N, chunk_size or auto_chunk_size(N, 2 * K))
+    fn = _StepFn(method)
+    P = None if period is None else float(period)
+    hj, vj = jnp.asarray(float(h)), jnp.asarray(float(value))
+
+    cx, cn, cl, cp = [], [], [], []
+    counts = np.zeros(N, dtype=np.int64)  # every detected crossing
+    kept = np.zeros(N, dtype=np.int64)  # the recorded ones
+    status = np.zeros(N, dtype=np.int32)
+    bar = _Bar(progress, N * n_steps, "Poincaré section")
+    try:
+        for lo, hi in _chunks(N, C):
+            x = jnp.asarray(_pad(pts[lo:hi], C))
+            st = jnp.zeros(C, jnp.int32)
+            zero = jnp.zeros(C, jnp.int32)
+            bx, bn, bl = jnp.zeros((C, K, 3)), jnp.zeros((C, K), jnp.int32), jnp.zeros((C, K))
+            rows = np.arange(lo, hi)
+            done = 0
+            while done < n_steps:
+                # fixed-length segments (one compilation); steps past n_steps are skipped
+                x, st, cnt, bx, bn, bl = _poincare_scan(
+                    fn, seg, K, axis, direction, P, x, st, zero, bx, bn, bl, jnp.asarray(done), hj, vj,
+                    jnp.asarray(n_steps),
+                )
+                L = min(seg, n_steps - done)
+                done += L
+                cnt_h = np.asarray(cnt)[: hi - lo].astype(np.int64)
+                keep = np.arange(K)[None, :] < np.minimum(cnt_h, K)[:, None]
+                if cap is not None:  # the first max_crossings crossings of each particle
+                    keep &= (kept[rows, None] + np.arange(K)[None, :]) < cap
+                counts[rows] += cnt_h
+                kept[rows] += keep.sum(axis=1)
+                if keep.any():
+                    cx.append(np.asarray(bx)[: hi - lo][keep])
+                    cn.append(np.asarray(bn)[: hi - lo][keep])
+                    cl.append(np.asarray(bl)[: hi - lo][keep])
+                    cp.append(np.broadcast_to(rows[:, None], (hi - lo, K))[keep])
+                bar.update((hi - lo) * L)  # np.asarray(cnt) above synced with the device
+            status[lo:hi] = np.asarray(st)[: hi - lo]
+    finally:
+        bar.close()
+    xs = np.concatenate(cx) if cx else np.zeros((0, 3))
+    ns = np.concatenate(cn) if cn else np.zeros(0, np.int64)
+    ls = np.concatenate(cl) if cl else np.zeros(0)
+    ps = np.concatenate(cp) if cp else np.zeros(0, np.int64)
+
+    # locate: batched over all crossings, in fixed-size padded chunks (one compilation)
+    M = xs.shape[0]
+    pts_out, thetas, fallback = np.zeros((M, 3)), np.zeros(M), np.zeros(M, dtype=bool)
+    R = min(1 << max(M - 1, 1).bit_length(), 2**14)  # power-of-two buckets: few compilations
+    for lo, hi in _chunks(M, R):
+        Y, th, fb = _refine_kernel(
+            fn, axis, interpolation, jnp.asarray(_pad(xs[lo:hi], R)), jnp.asarray(_pad(ls[lo:hi, None], R)[:, 0]), hj
+        )
+        pts_out[lo:hi] = np.asarray(Y)[: hi - lo]
+        thetas[lo:hi] = np.asarray(th)[: hi - lo]
+        fallback[lo:hi] = np.asarray(fb)[: hi - lo]
+    order = np.lexsort((ns, ps))
+    from .._integrate import describe
+
+    return PoincareSection(
+        points=pts_out[order],
+        particle=ps[order].astype(np.int64),
+        step=ns[order].astype(np.int64),
+        theta=thetas[order],
+        t=t0 + (ns[order] + thetas[order]) * float(h),
+        counts=counts,
+        dropped=int(np.sum(counts - kept)),
+        axis=axis,
+        value=float(value),
+        direction=direction,
+        period=P,
+        interpolation=interpolation,
+        interpolation_order=_interp_order(method, interpolation),
+        method=describe(method),
+        status=status,
+        fallback=fallback[order],
+    )
