@@ -22,7 +22,7 @@ import numpy as np
 
 from ._errors import RECOVERY, RESULTS
 
-__all__ = ["bare_method", "recover_points", "count_how"]
+__all__ = ["bare_method", "recover_points", "count_how", "bare_first"]
 
 #: points per call of the recovering step (one compilation per method)
 _BUFFER = 32
@@ -32,6 +32,22 @@ def bare_method(method: Any) -> Any:
     """The method with recovery stripped, or ``method`` itself (a user method, a bare one)."""
     strip = getattr(method, "without_recovery", None)
     return method if strip is None else strip()
+
+
+def bare_first(run, method: Any, succeeded):
+    """``run(m)`` of a trajectory diagnostic whose scan traces the step (``log_det``,
+    ``poincare_section``), with the bare method first.
+
+    Where no bare step fails, the recovering step IS the bare map, so that result stands and only
+    the bare step was compiled; if ``succeeded(result)`` is False (some step failed), the run is
+    repeated with the recovering ``method``, whose every alternative is then compiled into the
+    scan.  Methods without recovery run once.
+    """
+    bare = bare_method(method)
+    if bare is method:
+        return run(method)
+    out = run(bare)
+    return out if succeeded(out) else run(method)
 
 
 def _padded(fn, x: np.ndarray, h: float):

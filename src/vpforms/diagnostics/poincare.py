@@ -15,6 +15,7 @@ from jax import lax
 from .. import _config  # noqa: F401
 from .._errors import RESULTS
 from .._integrate import _Bar, _check_run, _StepFn, auto_chunk_size
+from .._recovery import bare_first
 from ._common import _chunks, _pad
 
 __all__ = ["PoincareSection", "poincare_section"]
@@ -241,80 +242,87 @@ def poincare_section(
     if cap is not None and cap < 0:
         raise ValueError(f"max_crossings must be ≥ 0, got {max_crossings}")
     C = min(N, chunk_size or auto_chunk_size(N, 2 * K))
-    fn = _StepFn(method)
     P = None if period is None else float(period)
-    hj, vj = jnp.asarray(float(h)), jnp.asarray(float(value))
 
-    cx, cn, cl, cp = [], [], [], []
-    counts = np.zeros(N, dtype=np.int64)  # every detected crossing
-    kept = np.zeros(N, dtype=np.int64)  # the recorded ones
-    status = np.zeros(N, dtype=np.int32)
-    bar = _Bar(progress, N * n_steps, "Poincaré section")
-    try:
-        for lo, hi in _chunks(N, C):
-            x = jnp.asarray(_pad(pts[lo:hi], C))
-            st = jnp.zeros(C, jnp.int32)
-            zero = jnp.zeros(C, jnp.int32)
-            bx, bn, bl = jnp.zeros((C, K, 3)), jnp.zeros((C, K), jnp.int32), jnp.zeros((C, K))
-            rows = np.arange(lo, hi)
-            done = 0
-            while done < n_steps:
-                # fixed-length segments (one compilation); steps past n_steps are skipped
-                x, st, cnt, bx, bn, bl = _poincare_scan(
-                    fn, seg, K, axis, direction, P, x, st, zero, bx, bn, bl, jnp.asarray(done), hj, vj,
-                    jnp.asarray(n_steps),
-                )
-                L = min(seg, n_steps - done)
-                done += L
-                cnt_h = np.asarray(cnt)[: hi - lo].astype(np.int64)
-                keep = np.arange(K)[None, :] < np.minimum(cnt_h, K)[:, None]
-                if cap is not None:  # the first max_crossings crossings of each particle
-                    keep &= (kept[rows, None] + np.arange(K)[None, :]) < cap
-                counts[rows] += cnt_h
-                kept[rows] += keep.sum(axis=1)
-                if keep.any():
-                    cx.append(np.asarray(bx)[: hi - lo][keep])
-                    cn.append(np.asarray(bn)[: hi - lo][keep])
-                    cl.append(np.asarray(bl)[: hi - lo][keep])
-                    cp.append(np.broadcast_to(rows[:, None], (hi - lo, K))[keep])
-                bar.update((hi - lo) * L)  # np.asarray(cnt) above synced with the device
-            status[lo:hi] = np.asarray(st)[: hi - lo]
-    finally:
-        bar.close()
-    xs = np.concatenate(cx) if cx else np.zeros((0, 3))
-    ns = np.concatenate(cn) if cn else np.zeros(0, np.int64)
-    ls = np.concatenate(cl) if cl else np.zeros(0)
-    ps = np.concatenate(cp) if cp else np.zeros(0, np.int64)
+    def trace(m):  # the section traced with the step of m (method's labels)
+        fn = _StepFn(m)
+        hj, vj = jnp.asarray(float(h)), jnp.asarray(float(value))
 
-    # locate: batched over all crossings, in fixed-size padded chunks (one compilation)
-    M = xs.shape[0]
-    pts_out, thetas, fallback = np.zeros((M, 3)), np.zeros(M), np.zeros(M, dtype=bool)
-    R = min(1 << max(M - 1, 1).bit_length(), 2**14)  # power-of-two buckets: few compilations
-    for lo, hi in _chunks(M, R):
-        Y, th, fb = _refine_kernel(
-            fn, axis, interpolation, jnp.asarray(_pad(xs[lo:hi], R)), jnp.asarray(_pad(ls[lo:hi, None], R)[:, 0]), hj
+        cx, cn, cl, cp = [], [], [], []
+        counts = np.zeros(N, dtype=np.int64)  # every detected crossing
+        kept = np.zeros(N, dtype=np.int64)  # the recorded ones
+        status = np.zeros(N, dtype=np.int32)
+        bar = _Bar(progress, N * n_steps, "Poincaré section")
+        try:
+            for lo, hi in _chunks(N, C):
+                x = jnp.asarray(_pad(pts[lo:hi], C))
+                st = jnp.zeros(C, jnp.int32)
+                zero = jnp.zeros(C, jnp.int32)
+                bx, bn, bl = jnp.zeros((C, K, 3)), jnp.zeros((C, K), jnp.int32), jnp.zeros((C, K))
+                rows = np.arange(lo, hi)
+                done = 0
+                while done < n_steps:
+                    # fixed-length segments (one compilation); steps past n_steps are skipped
+                    x, st, cnt, bx, bn, bl = _poincare_scan(
+                        fn, seg, K, axis, direction, P, x, st, zero, bx, bn, bl, jnp.asarray(done), hj, vj,
+                        jnp.asarray(n_steps),
+                    )
+                    L = min(seg, n_steps - done)
+                    done += L
+                    cnt_h = np.asarray(cnt)[: hi - lo].astype(np.int64)
+                    keep = np.arange(K)[None, :] < np.minimum(cnt_h, K)[:, None]
+                    if cap is not None:  # the first max_crossings crossings of each particle
+                        keep &= (kept[rows, None] + np.arange(K)[None, :]) < cap
+                    counts[rows] += cnt_h
+                    kept[rows] += keep.sum(axis=1)
+                    if keep.any():
+                        cx.append(np.asarray(bx)[: hi - lo][keep])
+                        cn.append(np.asarray(bn)[: hi - lo][keep])
+                        cl.append(np.asarray(bl)[: hi - lo][keep])
+                        cp.append(np.broadcast_to(rows[:, None], (hi - lo, K))[keep])
+                    bar.update((hi - lo) * L)  # np.asarray(cnt) above synced with the device
+                status[lo:hi] = np.asarray(st)[: hi - lo]
+        finally:
+            bar.close()
+        xs = np.concatenate(cx) if cx else np.zeros((0, 3))
+        ns = np.concatenate(cn) if cn else np.zeros(0, np.int64)
+        ls = np.concatenate(cl) if cl else np.zeros(0)
+        ps = np.concatenate(cp) if cp else np.zeros(0, np.int64)
+
+        # locate: batched over all crossings, in fixed-size padded chunks (one compilation)
+        M = xs.shape[0]
+        pts_out, thetas, fallback = np.zeros((M, 3)), np.zeros(M), np.zeros(M, dtype=bool)
+        R = min(1 << max(M - 1, 1).bit_length(), 2**14)  # power-of-two buckets: few compilations
+        for lo, hi in _chunks(M, R):
+            Y, th, fb = _refine_kernel(
+                fn, axis, interpolation, jnp.asarray(_pad(xs[lo:hi], R)), jnp.asarray(_pad(ls[lo:hi, None], R)[:, 0]), hj
+            )
+            pts_out[lo:hi] = np.asarray(Y)[: hi - lo]
+            thetas[lo:hi] = np.asarray(th)[: hi - lo]
+            fallback[lo:hi] = np.asarray(fb)[: hi - lo]
+        order = np.lexsort((ns, ps))
+        from .._integrate import describe
+
+        return PoincareSection(
+            points=pts_out[order],
+            particle=ps[order].astype(np.int64),
+            step=ns[order].astype(np.int64),
+            theta=thetas[order],
+            t=t0 + (ns[order] + thetas[order]) * float(h),
+            counts=counts,
+            dropped=int(np.sum(counts - kept)),
+            axis=axis,
+            value=float(value),
+            direction=direction,
+            period=P,
+            interpolation=interpolation,
+            interpolation_order=_interp_order(method, interpolation),
+            method=describe(method),
+            status=status,
+            fallback=fallback[order],
         )
-        pts_out[lo:hi] = np.asarray(Y)[: hi - lo]
-        thetas[lo:hi] = np.asarray(th)[: hi - lo]
-        fallback[lo:hi] = np.asarray(fb)[: hi - lo]
-    order = np.lexsort((ns, ps))
-    from .._integrate import describe
 
-    return PoincareSection(
-        points=pts_out[order],
-        particle=ps[order].astype(np.int64),
-        step=ns[order].astype(np.int64),
-        theta=thetas[order],
-        t=t0 + (ns[order] + thetas[order]) * float(h),
-        counts=counts,
-        dropped=int(np.sum(counts - kept)),
-        axis=axis,
-        value=float(value),
-        direction=direction,
-        period=P,
-        interpolation=interpolation,
-        interpolation_order=_interp_order(method, interpolation),
-        method=describe(method),
-        status=status,
-        fallback=fallback[order],
-    )
+    # a recovering method: the bare scan, and the recovering one only where a bare step (or a
+    # locating sub-step) failed
+    return bare_first(trace, method, lambda s: bool(np.all(s.status == RESULTS.successful)
+                                                    and not np.any(s.fallback)))

@@ -14,6 +14,7 @@ from jax import lax
 from .. import _config  # noqa: F401
 from .._errors import RESULTS
 from .._integrate import _check_run, _StepFn, auto_chunk_size
+from .._recovery import bare_first
 from ._common import _chunks, _pad
 
 __all__ = ["LogDet", "log_det"]
@@ -96,13 +97,19 @@ def log_det(
     pts, single, h, n_steps = _check_run(method, x0, h, n_steps, t0)
     N = pts.shape[0]
     C = min(N, chunk_size or auto_chunk_size(N, n_steps))
-    per = np.empty((N, n_steps))
-    status = np.empty(N, dtype=np.int32)
-    fn = _StepFn(method)
-    for lo, hi in _chunks(N, C):
-        lds, st = _logdet_kernel(fn, int(n_steps), jnp.asarray(_pad(pts[lo:hi], C)), jnp.asarray(h))
-        per[lo:hi] = np.asarray(lds)[: hi - lo]
-        status[lo:hi] = np.asarray(st)[: hi - lo]
+
+    def trace(m):
+        per = np.empty((N, n_steps))
+        status = np.empty(N, dtype=np.int32)
+        fn = _StepFn(m)
+        for lo, hi in _chunks(N, C):
+            lds, st = _logdet_kernel(fn, int(n_steps), jnp.asarray(_pad(pts[lo:hi], C)), jnp.asarray(h))
+            per[lo:hi] = np.asarray(lds)[: hi - lo]
+            status[lo:hi] = np.asarray(st)[: hi - lo]
+        return per, status
+
+    # a recovering method: the bare scan, and the recovering one only where a bare step failed
+    per, status = bare_first(trace, method, lambda r: bool(np.all(r[1] == RESULTS.successful)))
     acc = np.concatenate([np.zeros((N, 1)), np.cumsum(per, axis=1)], axis=1)
     ts = t0 + h * np.arange(n_steps + 1)
     from .._integrate import describe
