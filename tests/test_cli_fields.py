@@ -10,17 +10,12 @@ import pytest
 
 from vpforms._parse import FieldSyntaxError, field_from_text, parse_expression, parse_number
 from vpforms.cli import main
+from .test_cli import _one_line_error
 
 ABC = "A*sin(z)+C*cos(y), B*sin(x)+A*cos(z), C*sin(y)+B*cos(x)"
 PARAMS = ["--param", "A=1", "--param", "B=0.8", "--param", "C=0.5"]
 
 
-def _one_line_error(capsys):
-    err = capsys.readouterr().err.strip()
-    assert err.startswith("vpforms: error:"), err
-    assert len(err.splitlines()) == 1, err
-    assert "Traceback" not in err
-    return err
 
 
 def test_abc_as_text_reproduces_the_problem(tmp_path, capsys):

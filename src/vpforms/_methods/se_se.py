@@ -80,29 +80,16 @@ class SESEFast(SESE):
         opts = dict(self.newton)
         d2F1, d3F1, d1F3, d2F3 = self._d2F1, self._d3F1, self._d1F3, self._d2F3
         # X₃ = x₃ − h∂₂F¹(x₁, x₂, X₃)   (volpot1)
-        if e3:
-            X3, s3, i3 = x3 - h * d2F1(x1, x2, x3), jnp.int32(0), jnp.int32(0)
-        else:
-            X3, s3, i3 = newton_scalar(
-                lambda z, p: z - p[2] + p[3] * d2F1(p[0], p[1], z),
-                jax.grad(lambda z, p: z - p[2] + p[3] * d2F1(p[0], p[1], z)),
-                x3, (x1, x2, x3, h), **opts,
-            )
+        X3, s3, i3 = _shear(e3, lambda: x3 - h * d2F1(x1, x2, x3),
+                            lambda z, p: z - p[2] + p[3] * d2F1(p[0], p[1], z), x3, (x1, x2, x3, h), opts)
         # X₂ = x₂ + h∂₃F¹(x₁, x₂, X₃) − h∂₁F³(x₁, X₂, X₃)   (volpot2)
         b = x2 + h * d3F1(x1, x2, X3)
-        if e2:
-            X2, s2, i2 = b - h * d1F3(x1, x2, X3), jnp.int32(0), jnp.int32(0)
-        else:
-            X2, s2, i2 = newton_scalar(
-                lambda z, p: z - p[1] + p[3] * d1F3(p[0], z, p[2]),
-                jax.grad(lambda z, p: z - p[1] + p[3] * d1F3(p[0], z, p[2])),
-                x2, (x1, b, X3, h), **opts,
-            )
+        X2, s2, i2 = _shear(e2, lambda: b - h * d1F3(x1, x2, X3),
+                            lambda z, p: z - p[1] + p[3] * d1F3(p[0], z, p[2]), x2, (x1, b, X3, h), opts)
         X1 = x1 + h * d2F3(x1, X2, X3)  # volpot3
         X = jnp.stack([X1, X2, X3])
         status = merge_status(s3, s2, jnp.where(jnp.all(jnp.isfinite(X)), 0, 3))
         return X, status, i3 + i2
-
 
     def _backward(self, X, h):
         X1, X2, X3 = X[0], X[1], X[2]
@@ -110,28 +97,24 @@ class SESEFast(SESE):
         opts = dict(self.newton)
         d2F1, d3F1, d1F3, d2F3 = self._d2F1, self._d3F1, self._d1F3, self._d2F3
         # x₁ from X₁ = x₁ + h∂₂F³(x₁, X₂, X₃)   (volpot3, solved for x₁)
-        if e1:
-            x1, s1, i1 = X1 - h * d2F3(X1, X2, X3), jnp.int32(0), jnp.int32(0)
-        else:
-            x1, s1, i1 = newton_scalar(
-                lambda z, p: z - p[0] + p[3] * d2F3(z, p[1], p[2]),
-                jax.grad(lambda z, p: z - p[0] + p[3] * d2F3(z, p[1], p[2])),
-                X1, (X1, X2, X3, h), **opts,
-            )
+        x1, s1, i1 = _shear(e1, lambda: X1 - h * d2F3(X1, X2, X3),
+                            lambda z, p: z - p[0] + p[3] * d2F3(z, p[1], p[2]), X1, (X1, X2, X3, h), opts)
         # x₂ from x₂ + h∂₃F¹(x₁, x₂, X₃) = X₂ + h∂₁F³(x₁, X₂, X₃)   (volpot2, solved for x₂)
         c = X2 + h * d1F3(x1, X2, X3)
-        if e2:
-            x2, s2, i2 = c - h * d3F1(x1, X2, X3), jnp.int32(0), jnp.int32(0)
-        else:
-            x2, s2, i2 = newton_scalar(
-                lambda z, p: z - p[1] + p[3] * d3F1(p[0], z, p[2]),
-                jax.grad(lambda z, p: z - p[1] + p[3] * d3F1(p[0], z, p[2])),
-                X2, (x1, c, X3, h), **opts,
-            )
+        x2, s2, i2 = _shear(e2, lambda: c - h * d3F1(x1, X2, X3),
+                            lambda z, p: z - p[1] + p[3] * d3F1(p[0], z, p[2]), X2, (x1, c, X3, h), opts)
         x3 = X3 + h * d2F1(x1, x2, X3)  # volpot1, explicit for x₃
         x = jnp.stack([x1, x2, x3])
         status = merge_status(s1, s2, jnp.where(jnp.all(jnp.isfinite(x)), 0, 3))
         return x, status, i1 + i2
+
+
+def _shear(explicit: bool, closed_form, residual, z0, params, opts):
+    """One scalar equation of the three shears: its closed form where it is explicit in the
+    unknown (decided symbolically), else the one Newton solve of residual(z, params) = 0."""
+    if explicit:
+        return closed_form(), jnp.int32(0), jnp.int32(0)
+    return newton_scalar(residual, jax.grad(residual), z0, params, **opts)
 
 
 def _explicit_inverse_flags(field) -> tuple[bool, bool]:
