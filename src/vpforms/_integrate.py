@@ -118,6 +118,10 @@ class RK4:
 class Solution:
     """The result of :func:`integrate` (NumPy arrays on the host).
 
+    :meth:`summary` and :meth:`explain` give the failures by reason ("163 twist condition failed,
+    8 non-finite"), the first failed particles with their steps, and a hint computed from the
+    failed steps (:func:`vpforms.diagnostics.explain_failures`).
+
     Attributes
     ----------
     ts:
@@ -143,9 +147,6 @@ class Solution:
     method_object:
         The method that ran (not saved): :meth:`explain` uses it for its hint.
 
-    :meth:`summary` and :meth:`explain` give the failures by reason ("163 twist condition failed,
-    8 non-finite"), the first failed particles with their steps, and a hint computed from the
-    failed steps (:func:`vpforms.diagnostics.explain_failures`).
     """
 
     ts: np.ndarray

@@ -188,6 +188,8 @@ def twist_map(method_or_field: Any, points: Any, h: float = 0.1, cases: Any = "c
         Passed to :func:`vpforms.scheme` for every candidate (e.g. ``newton``); a candidate whose
         recipe does not apply to the field gets a row with ``error`` instead of fractions.
 
+    Notes
+    -----
     Each candidate takes one step from every point with ``scheme(field, c, recover=False)`` and its
     per-point status is counted (see the module docstring): no separate twist formula.
     """
