@@ -10,7 +10,8 @@ from vpforms.cli import main
 from vpforms.diagnostics import OrderFit, PoincareSection
 
 
-def test_cases_table_does_not_wrap_in_a_pipe(capsys):
+def test_cases_table_does_not_wrap_in_a_pipe(capsys, monkeypatch):
+    monkeypatch.delenv("COLUMNS", raising=False)  # the rule: wide when piped unless COLUMNS is set
     assert main(["cases"]) == 0
     out = capsys.readouterr().out
     rows = [line for line in out.splitlines() if line.startswith("│")]
