@@ -117,27 +117,22 @@ def _shear(explicit: bool, closed_form, residual, z0, params, opts):
     return newton_scalar(residual, jax.grad(residual), z0, params, **opts)
 
 
-def _explicit_inverse_flags(field) -> tuple[bool, bool]:
-    """(∂₂F³ free of x₁, ∂₃F¹ free of x₂), symbolically: the inverse shears are explicit."""
+def _derivatives_free_of(field, checks) -> tuple[bool, ...]:
+    """For each (k, i, j) of ``checks``: is ∂ᵢ of the SE potential k (0: F¹, 1: F³) free of xⱼ
+    (0-based indices), symbolically; all False without closed-form potentials."""
     exprs = getattr(field, "se_potential_exprs", None)
     if exprs is None or field.symbols is None:
-        return False, False
-    x1, x2, x3 = field.symbols
-    F1, F3 = (sp.sympify(e) for e in exprs)
-    return (
-        x1 not in sp.diff(F3, x2).free_symbols,
-        x2 not in sp.diff(F1, x3).free_symbols,
-    )
+        return tuple(False for _ in checks)
+    xs = field.symbols
+    F = [sp.sympify(e) for e in exprs]
+    return tuple(xs[j] not in sp.diff(F[k], xs[i]).free_symbols for k, i, j in checks)
+
+
+def _explicit_inverse_flags(field) -> tuple[bool, bool]:
+    """(∂₂F³ free of x₁, ∂₃F¹ free of x₂), symbolically: the inverse shears are explicit."""
+    return _derivatives_free_of(field, ((1, 1, 0), (0, 2, 1)))
 
 
 def _explicit_flags(field) -> tuple[bool, bool]:
     """(∂₂F¹ free of x₃, ∂₁F³ free of x₂), symbolically; (False, False) without closed forms."""
-    exprs = getattr(field, "se_potential_exprs", None)
-    if exprs is None or field.symbols is None:
-        return False, False
-    x1, x2, x3 = field.symbols
-    F1, F3 = (sp.sympify(e) for e in exprs)
-    return (
-        x3 not in sp.diff(F1, x2).free_symbols,
-        x2 not in sp.diff(F3, x1).free_symbols,
-    )
+    return _derivatives_free_of(field, ((0, 1, 2), (1, 0, 1)))
