@@ -13,7 +13,7 @@ from vpforms.cli import main
         ("C=foo", "'foo' is not a number"),
         ("D=3", "has no parameter(s) D; its parameters are A, B, C"),
         ("A=", "has no value"),
-        ("A=sqrt(", "cannot read parameter value"),
+        ("A=sqrt(", "cannot read parameter value: 'sqrt(' is not a number"),
     ],
 )
 def test_bad_param_is_one_clean_line(param, needle, capsys):

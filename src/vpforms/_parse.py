@@ -93,11 +93,11 @@ def _check_tokens(text: str, names: set[str], what: str) -> None:
             if s == "t":
                 raise FieldSyntaxError(f"{what}: the field must be autonomous (no time t)")
             if s not in names:
-                raise FieldSyntaxError(
-                    f"{what}: unknown name {s!r} (coordinates x, y, z or x1, x2, x3; functions "
-                    f"{', '.join(k for k in FUNCTIONS if k not in ('pi', 'E'))}; constants pi, E; "
-                    f"declared parameters)"
-                )
+                funcs = ", ".join(k for k in FUNCTIONS if k not in ("pi", "E"))
+                known = (f" (coordinates x, y, z or x1, x2, x3; functions {funcs}; constants pi, E; "
+                         "declared parameters)") if "x1" in names else (
+                         f"; write a number such as 0.5, 2/3 or sqrt(2/3) (functions {funcs}; constants pi, E)")
+                raise FieldSyntaxError(f"{what}: unknown name {s!r}{known}")
         elif kind == tokenize.OP and s in _OPS:
             depth += s == "("
             depth -= s == ")"
@@ -159,7 +159,11 @@ def parse_expression(text: str, params: Mapping[str, Any] | Sequence[str] = (), 
 
 def parse_number(text: str, what: str = "value") -> sp.Expr:
     """A real constant such as ``0.5``, ``2/3`` or ``sqrt(2/3)`` (exact where the text is)."""
-    e = parse_expression(str(text), coordinates=False, what=what)
+    try:
+        e = parse_expression(str(text), coordinates=False, what=what)
+    except FieldSyntaxError as exc:  # say first that it is not a number, then why
+        raise FieldSyntaxError(f"{what}: {str(text)!r} is not a number ({str(exc).removeprefix(what + ': ')})"
+                               ) from None
     if e.free_symbols or e.is_real is False or not math.isfinite(float(abs(sp.N(e)))):
         raise FieldSyntaxError(f"{what}: {text!r} is not a finite real number")
     if e.is_real is not True and abs(complex(sp.N(e)).imag) > 0:

@@ -48,7 +48,7 @@ def _parse_value(text: str):
     try:
         return parse_number(text, what="parameter value")
     except FieldSyntaxError as exc:
-        raise CLIError(f"cannot read parameter value {text!r}: {exc}") from None
+        raise CLIError(f"cannot read {exc}") from None  # "cannot read parameter value: 'foo' is not a number (…)"
 
 
 def _parse_params(items: list[str] | None) -> dict[str, Any]:
