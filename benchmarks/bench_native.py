@@ -25,6 +25,9 @@ import time
 
 import numpy as np
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # benchmarks/_bench.py
+from _bench import best_of  # noqa: E402
+
 A, B, C = 1.0, math.sqrt(2.0 / 3.0), math.sqrt(1.0 / 3.0)
 
 REFERENCE_C = f"""
@@ -57,15 +60,6 @@ void ref_run(int64_t N, double *x1, double *x2, double *x3, int64_t n_steps, dou
 }}
 """
 REFERENCE_CDEF = "void ref_run(int64_t N, double *x1, double *x2, double *x3, int64_t n_steps, double h);"
-
-
-def _best(fn, repeats):
-    ts = []
-    for _ in range(repeats):
-        t = time.perf_counter()
-        out = fn()
-        ts.append(time.perf_counter() - t)
-    return min(ts), out
 
 
 def main(argv=None) -> int:
@@ -119,11 +113,11 @@ def main(argv=None) -> int:
     chk = float(np.max(np.abs(run_ref(x0[:256], 10) - run_points(sese, x0[:256], h, [0, 10])[0][:, -1])))
     rows = []
     ps = a.n * a.steps
-    t_ref, _ = _best(lambda: run_ref(x0, a.steps), a.repeats)
-    t_se, _ = _best(lambda: run_points(sese, x0, h, [0, a.steps]), a.repeats)
-    t_nw, _ = _best(lambda: run_points(sese, x0, h, [0, a.steps], engine="newton"), a.repeats)
-    t_o4, _ = _best(lambda: run_points(o4, x0, h, [0, a.steps]), a.repeats)
-    t_rk, _ = _best(lambda: run_points(rk4, x0, h, [0, a.steps]), a.repeats)
+    t_ref, _ = best_of(lambda: run_ref(x0, a.steps), a.repeats)
+    t_se, _ = best_of(lambda: run_points(sese, x0, h, [0, a.steps]), a.repeats)
+    t_nw, _ = best_of(lambda: run_points(sese, x0, h, [0, a.steps], engine="newton"), a.repeats)
+    t_o4, _ = best_of(lambda: run_points(o4, x0, h, [0, a.steps]), a.repeats)
+    t_rk, _ = best_of(lambda: run_points(rk4, x0, h, [0, a.steps]), a.repeats)
     ns = lambda t, n=ps: 1e9 * t / n  # noqa: E731
     rows.append(("hand-written C three-shear (reference)", ns(t_ref), 1.0))
     rows.append(("native SE+SE (closed form, generated)", ns(t_se), t_se / t_ref))
@@ -146,7 +140,7 @@ def main(argv=None) -> int:
             out = run_points(m, xa, hh, [0, n])
             err = float(np.median(np.max(np.abs(out[0][:, -1] - truth), axis=1)))
             if err <= 1e-6:
-                t, _ = _best(lambda: run_points(m, xa, hh, [0, n]), a.repeats)
+                t, _ = best_of(lambda: run_points(m, xa, hh, [0, n]), a.repeats)
                 chosen = (hh, n, err, t)
                 break
         acc.append((name, chosen))
@@ -157,8 +151,8 @@ def main(argv=None) -> int:
     jax_rows = []
     for name, m in (("SE+SE", sese), ("order 4", o4)):
         vp.integrate(m, xj[:8], h, sj, backend="jax", progress=False)  # compile
-        tj, _ = _best(lambda: vp.integrate(m, xj, h, sj, backend="jax", progress=False), a.repeats)
-        tn, _ = _best(lambda: run_points(m, xj, h, [0, sj]), a.repeats)
+        tj, _ = best_of(lambda: vp.integrate(m, xj, h, sj, backend="jax", progress=False), a.repeats)
+        tn, _ = best_of(lambda: run_points(m, xj, h, [0, sj]), a.repeats)
         jax_rows.append((name, ns(tj, len(xj) * sj), ns(tn, len(xj) * sj), tj / tn))
 
     lines = [

@@ -15,15 +15,15 @@
 
 from __future__ import annotations
 
-import argparse
 import os
-import platform
+import sys
 import time
 
-import jax
 import numpy as np
 
-import vpforms
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # benchmarks/_bench.py
+from _bench import machine, parser  # noqa: E402
+
 from vpforms import compose, integrate, scheme
 from vpforms.diagnostics import fit_order, reference_solution
 from vpforms.problems import get
@@ -124,11 +124,7 @@ def order_study(N, T, hs):
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--smoke", action="store_true", help="tiny sizes, one round (checks the script runs)")
-    ap.add_argument("--out", default=os.path.join(os.path.dirname(__file__), "results_recovery.md"))
-    ap.add_argument("--rounds", type=int, default=11)
-    args = ap.parse_args(argv)
+    args = parser(__doc__, "results_recovery.md", rounds=11).parse_args(argv)
     t_start = time.perf_counter()
     if args.smoke:
         a_N, a_steps, rounds = 16, 4, 1
@@ -152,11 +148,7 @@ def main(argv=None) -> int:
     L.append("# Recovery of failed steps: cost and effect (issue #12)\n")
     if args.smoke:
         L.append("**smoke mode** (tiny sizes, one round: checks that the script runs; numbers mean nothing)\n")
-    L.append(f"Machine: {platform.machine()}, {os.cpu_count()} CPU(s) (shared), JAX {jax.__version__} "
-             f"({jax.default_backend()}), vpforms {vpforms.__version__}; the JAX backend throughout; "
-             f"script wall time {wall:.0f} s.\n")
-    L.append("Command: `PYTHONPATH=src python benchmarks/bench_recovery.py" + (" --smoke" if args.smoke else "")
-             + "`\n")
+    L.append(machine("bench_recovery.py", wall, args.smoke) + " The JAX backend throughout.\n")
     L.append("## (a) Cost of recovery when nothing fails (ABC, SE+SE)\n")
     L.append(f"{a_N} particles × {a_steps} steps, h = 0.1; {rounds} interleaved round(s) after a warm-up, "
              f"best wall time of each. Failed particles in either run: {a_failed}; the two runs' states "

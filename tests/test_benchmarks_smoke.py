@@ -1,4 +1,6 @@
-"""The benchmark script runs end to end in smoke mode (tiny N); no timing is asserted."""
+"""Every benchmark script in benchmarks/ runs end to end in smoke mode (tiny sizes) and writes its
+results file; no timing is asserted.  Where a script checks that its baseline is the same map as
+vpforms (the ``Check:`` line, computed by the script), that difference must be at round-off."""
 
 from __future__ import annotations
 
@@ -7,22 +9,66 @@ import pathlib
 
 import pytest
 
-SCRIPT = pathlib.Path(__file__).resolve().parents[1] / "benchmarks" / "bench_abc.py"
+import vpforms as vp
+
+BENCHMARKS = pathlib.Path(__file__).resolve().parents[1] / "benchmarks"
+_NATIVE_OK, _NATIVE_WHY = vp.native.available()
 
 
-@pytest.mark.skipif(not SCRIPT.exists(), reason="benchmarks/ is not shipped with this install")
-def test_benchmark_smoke(tmp_path, capsys):
-    spec = importlib.util.spec_from_file_location("bench_abc", SCRIPT)
+def _smoke(script: str, tmp_path: pathlib.Path) -> str:
+    """Run ``benchmarks/<script>.py --smoke`` in this process; the text of the results file it wrote."""
+    path = BENCHMARKS / f"{script}.py"
+    if not path.exists():
+        pytest.skip("benchmarks/ is not shipped with this install")
+    spec = importlib.util.spec_from_file_location(script, path)
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
-    out = tmp_path / "results.md"
+    out = tmp_path / f"results_{script}.md"
     assert mod.main(["--smoke", "--out", str(out)]) == 0
     text = out.read_text()
     assert "smoke mode" in text
+    return text
+
+
+def _check_value(text: str) -> float:
+    """The first number on the script's ``Check: … = <value> (…)`` line."""
+    check = [line for line in text.splitlines() if line.startswith("Check:")][0]
+    return float(check.split("=")[1].split("(")[0])
+
+
+def _row_labels(text: str) -> list[str]:
     rows = [line for line in text.splitlines() if line.startswith("| ") and "---" not in line]
-    labels = [r.split("|")[1].strip() for r in rows[1:]]
+    return [r.split("|")[1].strip() for r in rows[1:]]
+
+
+def test_bench_abc_smoke(tmp_path):
+    text = _smoke("bench_abc", tmp_path)
+    labels = _row_labels(text)
     for needle in ("generic engine", "fast path", "order 2", "order 4", "three-shear", "RK4", "DOP853"):
         assert any(needle in lab for lab in labels), needle
-    # the hand-written three-shear kernel is the same map as vpforms SE+SE (checked by the script)
-    check = [line for line in text.splitlines() if line.startswith("Check:")][0]
-    assert float(check.split("=")[1].split("(")[0]) < 1e-12
+    assert _check_value(text) < 1e-12  # the hand-written three-shear kernel is vpforms' SE+SE map
+
+
+def test_bench_compose_smoke(tmp_path):
+    text = _smoke("bench_compose", tmp_path)
+    assert _row_labels(text) == ["fast", "generic"]
+    assert _check_value(text) < 1e-12  # the fast compositions are the generic ones
+
+
+@pytest.mark.skipif(not _NATIVE_OK, reason=f"native backend unavailable: {_NATIVE_WHY}")
+def test_bench_native_smoke(tmp_path, monkeypatch):
+    monkeypatch.setenv("VPFORMS_NATIVE_CACHE", str(tmp_path / "cache"))
+    text = _smoke("bench_native", tmp_path)
+    assert _check_value(text) < 1e-12  # the hand-written C reference is the same map
+    for needle in ("reference", "native SE+SE", "native order 4", "native RK4", "speed-up"):
+        assert needle in text, needle
+
+
+@pytest.mark.slow  # compiles the recovering tokamak DL+DL compositions (~1-3 min on a shared machine)
+def test_bench_recovery_smoke(tmp_path):
+    text = _smoke("bench_recovery", tmp_path)
+    for needle in ("## (a)", "## (b)", "## (c)", "Ratio recovering / bare"):
+        assert needle in text, needle
+    lines = text.splitlines()
+    assert sum(line.startswith("| 0.1 |") for line in lines) == 2  # tokamak h = 0.1: bare and recovering
+    assert sum(line.startswith("| DL+DL") for line in lines) == 12  # 3 methods × 4 rows
