@@ -25,7 +25,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from functools import partial
 from typing import Any
 
@@ -535,21 +535,13 @@ def integrate(
 
         if chunk_size is not None and int(chunk_size) < 1:  # the same check as the JAX path
             raise ValueError(f"chunk_size must be ≥ 1, got {chunk_size}")
-        sol = integrate_native(method, pts, single, h, n_steps, save_every, t0, progress, backend_reason)
-        return replace(sol, method_object=method)
+        return integrate_native(method, pts, single, h, n_steps, save_every, t0, progress, backend_reason)
     N = pts.shape[0]
-    if save_every is None:
-        # only x0 and the final state are kept: fixed blocks (32 steps, 8 per call) so that every
-        # n_steps (e.g. a step-size sweep) reuses one compilation
-        steps = np.array([0, n_steps]) if n_steps else np.array([0])
-        k, L = 32, 8
-        n_blocks = -(-n_steps // k)
-    else:
-        k = int(save_every)
-        if k < 1:
-            raise ValueError(f"save_every must be ≥ 1, got {save_every}")
-        n_blocks = -(-n_steps // k)  # ceil: the last block may be partial (extra steps skipped)
-        steps = np.minimum(np.arange(n_blocks + 1) * k, n_steps)
+    steps = saved_steps(n_steps, save_every)
+    # save_every None: only x0 and the final state are kept; fixed blocks (32 steps, 8 per call)
+    # so that every n_steps (e.g. a step-size sweep) reuses one compilation
+    k, L = (32, 8) if save_every is None else (int(save_every), 1)
+    n_blocks = -(-n_steps // k)  # ceil: the last block may be partial (extra steps skipped)
     S = steps.size
 
     C = auto_chunk_size(N, S) if chunk_size is None else int(chunk_size)
@@ -611,15 +603,29 @@ def integrate(
         bar.close()
     wall = time.perf_counter() - t_wall
 
-    stats = {
-        "wall_s": wall,
-        "chunk_size": C,
-        "n_chunks": n_chunks,
-        "ns_per_particle_step": (1e9 * wall / (N * n_steps)) if N * n_steps else float("nan"),
-        "backend": "jax",
-        "backend_reason": backend_reason,
-        **({"recovered_how": recovered_how} if recovered_how else {}),
-    }
+    stats = dict(wall_s=wall, chunk_size=C, n_chunks=n_chunks, backend="jax", backend_reason=backend_reason)
+    return make_solution(method, single, h, n_steps, save_every, t0, steps, xs, status, failed, recovered,
+                         stats, recovered_how)
+
+
+def saved_steps(n_steps: int, save_every: int | None) -> np.ndarray:
+    """The step indices a run keeps: 0, k, 2k, …, n_steps (the last block may be partial), or only
+    0 and n_steps when ``save_every`` is None."""
+    if save_every is None:
+        return np.array([0, n_steps]) if n_steps else np.array([0])
+    k = int(save_every)
+    if k < 1:
+        raise ValueError(f"save_every must be ≥ 1, got {save_every}")
+    return np.minimum(np.arange(-(-n_steps // k) + 1) * k, n_steps)
+
+
+def make_solution(method, single, h, n_steps, save_every, t0, steps, xs, status, failed, recovered,
+                  stats: dict, how: dict) -> Solution:
+    """The :class:`Solution` of a finished run, the same from every backend: ``stats`` (wall time,
+    chunking, backend) gains the throughput and the recovery breakdown; a single point is unbatched."""
+    N = xs.shape[0]
+    stats = {**stats, "ns_per_particle_step": (1e9 * stats["wall_s"] / (N * n_steps)) if N * n_steps
+             else float("nan"), **({"recovered_how": how} if how else {})}
     ts = t0 + h * steps.astype(np.float64)
     if single:
         return Solution(ts, steps, xs[0], status[0], failed[0], describe(method), h, n_steps, save_every, t0, stats,

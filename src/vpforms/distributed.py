@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 
 from . import io as _io
+from ._integrate import saved_steps as _global_steps
 
 __all__ = ["run", "run_chunk"]
 
@@ -52,13 +53,6 @@ def _method(spec_text: str):
     caller's process the caller's own method object (already compiled)."""
     m = _IN_PROCESS.get(spec_text)
     return m if m is not None else _rebuilt(spec_text)
-
-
-def _global_steps(n_steps: int, save_every: int | None) -> np.ndarray:
-    if save_every is None:
-        return np.array([0, n_steps]) if n_steps else np.array([0])
-    nb = -(-n_steps // save_every)
-    return np.minimum(np.arange(nb + 1) * save_every, n_steps)
 
 
 def run_chunk(spec_text: str, store: str, c: int, lo: int, x0: np.ndarray, h: float, n_steps: int,

@@ -112,19 +112,12 @@ def run_points(method, pts, h, steps, progress_cb=None, engine="auto", save=None
 
 def integrate_native(method, pts, single, h, n_steps, save_every, t0, progress, reason):
     """The native counterpart of the JAX loop in :func:`vpforms.integrate` (same Solution)."""
-    from ..._integrate import Solution, _Bar, describe
+    from ..._integrate import _Bar, make_solution, saved_steps
 
-    if save_every is None:
-        steps = np.array([0, n_steps]) if n_steps else np.array([0])
-        # intermediate targets only for the progress bar (≤ 20 calls), not saved
-        targets = np.unique(np.linspace(0, n_steps, min(n_steps, 20) + 1).astype(np.int64))
-    else:
-        k = int(save_every)
-        if k < 1:
-            raise ValueError(f"save_every must be ≥ 1, got {save_every}")
-        n_blocks = -(-n_steps // k)
-        steps = np.minimum(np.arange(n_blocks + 1) * k, n_steps)
-        targets = steps
+    steps = saved_steps(n_steps, save_every)
+    # without saving, intermediate targets only for the progress bar (≤ 20 calls), not saved
+    targets = steps if save_every is not None else np.unique(
+        np.linspace(0, n_steps, min(n_steps, 20) + 1).astype(np.int64))
     N = pts.shape[0]
     bar = _Bar(progress, N * n_steps, "integrating (native)")
     t_wall = time.perf_counter()
@@ -134,19 +127,7 @@ def integrate_native(method, pts, single, h, n_steps, save_every, t0, progress, 
         xs, status, failed, recovered = run_points(method, pts, h, targets, bar.update, save=keep, how=how)
     finally:
         bar.close()
-    wall = time.perf_counter() - t_wall
-    stats = {
-        "wall_s": wall,
-        "chunk_size": N,
-        "n_chunks": 1 if N else 0,
-        "ns_per_particle_step": (1e9 * wall / (N * n_steps)) if N * n_steps else float("nan"),
-        "backend": "native",
-        "backend_reason": reason,
-        **({"recovered_how": how} if how else {}),
-    }
-    ts = t0 + h * steps.astype(np.float64)
-    d = describe(method)
-    if single:
-        return Solution(ts, steps, xs[0], status[0], failed[0], d, h, n_steps, save_every, t0, stats,
-                        recovered[0])
-    return Solution(ts, steps, xs, status, failed, d, h, n_steps, save_every, t0, stats, recovered)
+    stats = dict(wall_s=time.perf_counter() - t_wall, chunk_size=N, n_chunks=1 if N else 0, backend="native",
+                 backend_reason=reason)
+    return make_solution(method, single, h, n_steps, save_every, t0, steps, xs, status, failed, recovered,
+                         stats, how)
