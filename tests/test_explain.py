@@ -161,7 +161,29 @@ def test_summary_breakdown_and_hint_on_failing_run(abc_dl):
     st_best = _codes(vpforms.scheme(f, best.label, recover=False), frozen, H)
     assert best.twist == np.mean(st_best != RESULTS.twist_failure)
     assert f"{100 * best.twist:.0f} %" in rep.hint
+    # the nested θ-stage evaluation of the same DL+DL map (fast=True) at the failure states, counted here
+    fast = vpforms.scheme(f, "DL+DL", recover=False, fast=True)
+    fast_ok = np.mean(_codes(fast, frozen, H) == RESULTS.successful)
+    assert rep.fast_ok == fast_ok
+    assert ("fast=True" in rep.hint) == (fast_ok > 0)
     assert sol.summary(hint=False).get("hint") is None
+
+
+def test_fast_hint_applies_to_generic_dl_schemes_only():
+    """The ``--fast`` hint rebuilds the method from its spec with fast=True on every DL-class scheme
+    that the generic engine evaluates; other classes, the printed variant and fast schemes have none."""
+    from vpforms.diagnostics.failures import _with_fast
+
+    f = problems.get("abc").field
+    dl = vpforms.compose(vpforms.scheme(f, "DL+DL", theta=0.5, recover=False), 4)
+    spec = _with_fast(dl.spec())
+    assert spec["kind"] == "compose" and spec["base"]["options"] == {"theta": 0.5, "fast": True, "recover": False}
+    rebuilt = vpforms.method_from_spec(spec)
+    assert rebuilt.order == 4 and rebuilt.base.base.fast and rebuilt.base.base.theta == 0.5  # suzuki4[Ψ*∘Ψ]
+    assert _with_fast(vpforms.scheme(f, Case((2, 3, 1), (1, 3, 2)), recover=False).spec()) is None  # SE+SE
+    assert _with_fast(vpforms.scheme(f, "SE+DL", recover=False).spec())["options"]["fast"] is True
+    assert _with_fast(vpforms.scheme(f, "DL+DL", recover=False, printed=True).spec()) is None
+    assert _with_fast(vpforms.scheme(f, "DL+DL", recover=False, fast=True).spec()) is None
 
 
 # --------------------------------------------------------------------------------------------

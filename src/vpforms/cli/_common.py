@@ -255,7 +255,9 @@ def _add_method_args(p, default_order=1, backend=False):
                    help="an explicit case (σ, Σ) instead of the class representative, e.g. --case 2,3,1 1,3,2")
     p.add_argument("--order", type=int, default=default_order, choices=(1, 2, 4, 6),
                    help=f"composition order (1 = the bare method); default {default_order}")
-    p.add_argument("--fast", action="store_true", help="closed-form SE+SE path (no Newton)")
+    p.add_argument("--fast", action="store_true",
+                   help="direct evaluation of the same map: closed-form shears (SE+SE) or the nested "
+                        "θ-stages (SE+DL, DL+DL: no fold failures of the discrete Lagrangian)")
     p.add_argument("--theta", type=_finite_float, default=None,
                    help="θ of the discrete Lagrangian (DL classes): 0 or 0.5")
     p.add_argument("--no-recover", action="store_true",

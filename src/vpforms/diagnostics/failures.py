@@ -8,7 +8,10 @@
 * a concrete hint computed from the failed steps themselves (when the method and the states
   where the steps failed are known): the largest step h/2^j at which every one of those steps
   succeeds with the same (bare) method, and the class whose twist condition holds — and whose
-  step succeeds — at most of those states (:func:`vpforms.diagnostics.twist_map`); and, for a
+  step succeeds — at most of those states (:func:`vpforms.diagnostics.twist_map`); for a DL
+  class (SE+DL, DL+DL) evaluated through the generic engine, the fraction of those steps that the
+  nested θ-stage evaluation of the *same* map (``fast=True``, CLI ``--fast``) takes — near the fold
+  ∂²H/∂p² = 0 the engine's discrete Lagrangian degenerates, the nested stages do not; and, for a
   method run with recovery off, that recovery would retry those steps.
 """
 
@@ -46,7 +49,9 @@ class FailureReport:
     (particle, step or −1 if unknown, reason); ``smaller_h`` the largest h/2^j (j ≤ 6) at which
     every failed step succeeds with the bare method (None if none does or not computed) and
     ``smaller_h_ok`` the fraction of failed steps that succeed at h/2^6 when none did;
-    ``twist`` the :class:`~vpforms.diagnostics.TwistMap` at the failure states; ``hint`` the text.
+    ``twist`` the :class:`~vpforms.diagnostics.TwistMap` at the failure states; ``fast_ok`` the
+    fraction of the failed steps that the same DL method with ``fast=True`` takes (None where that
+    does not apply); ``hint`` the text.
     """
 
     n_particles: int
@@ -58,6 +63,7 @@ class FailureReport:
     smaller_h_ok: float | None = None
     twist: Any = None
     recovery_off: bool = False
+    fast_ok: float | None = None
     hint: str | None = None
 
     @property
@@ -152,7 +158,7 @@ def explain_failures(
     strip = getattr(method, "without_recovery", None)
     bare = method if strip is None else strip()
     recovery_off = strip is not None and bare is method and getattr(method, "case", None) is not None
-    smaller = smaller_ok = tm = None
+    smaller = smaller_ok = tm = fast_ok = None
     if method is not None and points is not None and h is not None:
         pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
         if pts.shape[0] != N:
@@ -164,10 +170,46 @@ def explain_failures(
         if fail_pts.shape[0]:
             smaller, smaller_ok = _smaller_h(bare, fail_pts, float(h))
             tm = _twist_at(method, fail_pts, float(h))
+            fast_ok = _fast_ok(bare, fail_pts, float(h))
     text = _hint_text(method, bare, recovery_off, float(h) if h is not None else None, smaller, smaller_ok,
-                      tm, cli)
+                      tm, cli, fast_ok)
     return FailureReport(**rep, smaller_h=smaller, smaller_h_ok=smaller_ok, twist=tm,
-                         recovery_off=recovery_off, hint=text)
+                         recovery_off=recovery_off, fast_ok=fast_ok, hint=text)
+
+
+def _with_fast(spec):
+    """The spec with ``fast=True`` on every DL-class scheme evaluated by the generic engine, or None
+    if there is none (or one is the printed variant, which has no nested stages)."""
+    if not isinstance(spec, dict):
+        return None
+    if spec.get("kind") == "scheme":
+        from .._case import Case
+        from .._methods.scheme import class_name
+
+        case, opts = spec["case"], dict(spec.get("options", {}))
+        cls = class_name(case) if isinstance(case, str) else Case(*(tuple(c) for c in case)).cls
+        if cls not in ("SE+DL", "DL+DL") or opts.get("fast") or opts.get("printed"):
+            return None
+        return {**spec, "options": {**opts, "fast": True, "recover": False}}
+    if "base" in spec:
+        base = _with_fast(spec["base"])
+        return None if base is None else {**spec, "base": base}
+    return None
+
+
+def _fast_ok(bare, pts, h):
+    """Fraction of the failed steps that the nested θ-stage evaluation of the same map takes."""
+    from .._errors import VPFormsError
+    from .._spec import method_from_spec, method_spec
+
+    try:
+        spec = _with_fast(method_spec(bare))
+        if spec is None:
+            return None
+        _, st = method_from_spec(spec).step_with_status(pts, h)
+    except (TypeError, ValueError, KeyError, VPFormsError):  # not a spec-able method: no such hint
+        return None
+    return float(np.mean(np.asarray(st) == RESULTS.successful))
 
 
 def _twist_at(method, pts, h):
@@ -183,8 +225,12 @@ def _twist_at(method, pts, h):
         return None
 
 
-def _hint_text(method, bare, recovery_off, h, smaller, smaller_ok, tm, cli) -> str:
+def _hint_text(method, bare, recovery_off, h, smaller, smaller_ok, tm, cli, fast_ok=None) -> str:
     parts = []
+    if fast_ok:  # first: the same map, only evaluated without the degenerate discrete Lagrangian
+        parts.append(("--fast" if cli else "fast=True") + " (the nested θ-stage evaluation of the same "
+                     f"DL map, well conditioned at the fold ∂²H/∂p² = 0) takes {_pct(fast_ok)} of the "
+                     "failed steps")
     if recovery_off:
         parts.append("drop --no-recover (recovery retries a failed step with other cases, other "
                      "classes and VP sub-steps)" if cli else
