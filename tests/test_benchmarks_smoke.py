@@ -70,5 +70,5 @@ def test_bench_recovery_smoke(tmp_path):
     for needle in ("## (a)", "## (b)", "## (c)", "Ratio recovering / bare"):
         assert needle in text, needle
     lines = text.splitlines()
-    assert sum(line.startswith("| 0.1 |") for line in lines) == 2  # tokamak h = 0.1: bare and recovering
+    assert sum(line.startswith("| 0.1 |") for line in lines) == 3  # tokamak h = 0.1: bare, recovering, fast
     assert sum(line.startswith("| DL+DL") for line in lines) == 12  # 3 methods × 4 rows
