@@ -101,6 +101,10 @@ def test_abc_dldl_long_run_keeps_every_orbit_and_volume(theta):
     # own evaluation error near the fold stays far below 1e-7)
     switched = np.max(np.abs(np.asarray(X) - r.xs[:, 1:].reshape(-1, 3)), axis=1) > 1e-7
     assert 0 < switched.sum() <= r.recovered.sum()
+    _, st_bare = rec.without_recovery().step_with_status(pts, h)
+    failed_bare = np.asarray(st_bare) != 0
+    assert failed_bare.sum() == r.recovered.sum()  # the re-evaluation finds exactly the recovered steps
+    assert not np.any(switched & ~failed_bare)  # a step leaves the map only where the bare step failed
     det = np.array(fast.det(pts, h))
     det[switched] = np.asarray(rec.det(pts[switched], h))
     per_orbit = np.sum(np.log(np.abs(det)).reshape(x0.shape[0], -1), axis=1)  # log det of Ψⁿ at each x₀
