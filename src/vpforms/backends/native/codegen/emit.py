@@ -31,7 +31,7 @@ from sympy.printing.c import C99CodePrinter
 from ...._errors import RESULTS
 from ....symbolic import _symbols as G
 from .plan import plan
-from .potentials import CORR_S, CorrectionStage, MapStage, RK4Stage
+from .potentials import CORR_S, DL_QPC, CorrectionStage, DLStage, MapStage, RK4Stage, ThetaStage
 
 __all__ = ["BLOCK", "CDEF", "kernel_source"]
 
@@ -261,6 +261,62 @@ def _correction_body(st: CorrectionStage, newton: bool, fixed: bool) -> list[str
                     f"code = (code == 0 && !_VP_FINITE(X1, X2, X3)) ? {RESULTS.nonfinite} : code;"]
 
 
+def _theta_c(st: ThetaStage, w: tuple[str, str, str], tag: str, newton: bool,
+             fixed: bool) -> list[str]:
+    """One θ-stage as ``dl_stage`` computes it: q₁ by Newton on g_q(q₁) = q₁ − q₀ − h∂_pH(q_θ, p̄(q₁))
+    from q₀ + h∂_pH(q₀, p₀), where every evaluation solves p̄(q₁) (inner, from p₀, its status
+    ignored) of g_p(p̄) = p̄ − p₀ + h(1−θ)∂_qH(q_θ, p̄), and dg_q/dq₁ carries the implicit-function
+    derivative dp̄/dq₁ = −∂_{q₁}g_p/∂_p̄ g_p (what autodiff through ``newton_scalar`` gives); then
+    p̄ at the root (its status kept) and p₁ = p̄ − hθ∂_qH(q_θ, p̄). ``w`` = C names of (q₀, p₀, c);
+    they receive (q₁, p₁). Defines ``{tag}_st`` (exact) or ``{tag}_ok`` (vectorised pass: outer,
+    final and every inner solve decided within the fixed iterations)."""
+    S = sp.Symbol
+    q, p, c = DL_QPC
+    q0, p0, cc, h, z = S(w[0]), S(w[1]), S(w[2]), _C["h"], _C["z"]
+    q1, pb = S(f"{tag}_q1"), S(f"{tag}_pb")
+    th = sp.Rational(st.theta)  # exact: θ = 0 drops its terms, as 0.0·(…) does in JAX
+    Hq, Hp = sp.diff(st.H, q), sp.diff(st.H, p)
+    at = {q: q0 + th * (q1 - q0), p: pb, c: cc}
+    gp = pb - p0 + h * (1 - th) * Hq.xreplace(at)
+    gq = q1 - q0 - h * Hp.xreplace(at)
+    dgq = sp.diff(gq, q1) - sp.diff(gq, pb) * sp.diff(gp, q1) / sp.diff(gp, pb)
+
+    def inner(t):  # p̄ at q₁ = {tag}_q1: defines {tag}_pb and {t}_st / {t}_ok
+        return _solve_c(f"{tag}_pb", gp, {pb: z}, w[1], st.newton, t, newton, fixed)
+
+    body = [f"double {tag}_q1 = z;", *inner(f"{tag}i")]
+    body += [f"{tag}_okin = {tag}_okin * {tag}i_ok;"] if fixed else []
+    body += _assign([f"{tag}o_g", f"{tag}o_dg"], [gq, dgq], {}, f"{tag}oc")
+    lines = [f"double {tag}_okin = 1.0;"] if fixed else []
+    lines += _assign([f"{tag}_guess"], [q0 + h * Hp.xreplace({q: q0, p: p0, c: cc})], {}, f"{tag}gc")
+    lines += (_newton_fixed_c if fixed else _newton_c)(f"{tag}_Q1", f"{tag}_guess", body,
+                                                        st.newton, f"{tag}o")
+    lines += [f"double {tag}_q1 = {tag}_Q1;", *inner(f"{tag}f")]
+    lines += _assign([f"{tag}_P1"], [pb - h * th * Hq.xreplace(at)], {}, f"{tag}pc")
+    lines += [f"{w[0]} = {tag}_Q1; {w[1]} = {tag}_P1;"]
+    if fixed:
+        return lines + [f"double {tag}_ok = {tag}o_ok * {tag}f_ok * {tag}_okin;"]
+    return lines + [f"int {tag}_st = {tag}o_st ? {tag}o_st : {tag}f_st;"]
+
+
+def _dl_body(st: DLStage, newton: bool, fixed: bool) -> list[str]:
+    """A DL step as ``DLPredictor._stages``: its θ-stages in sequence on a working copy of x, the
+    status ``merge_status(s₁, s₂, finite(X))``."""
+    lines = ["double w1 = x1, w2 = x2, w3 = x3;"]
+    tags = [f"t{k}" for k in range(len(st.stages))]
+    for ts, t in zip(st.stages, tags):
+        lines += _theta_c(ts, tuple(f"w{i + 1}" for i in ts.idx), t, newton, fixed)
+    lines.append("X1 = w1; X2 = w2; X3 = w3;")
+    if fixed:
+        return lines + [f"ok = {' * '.join(f'{t}_ok' for t in tags)} * "
+                        "(_VP_FINITE(X1, X2, X3) ? 1.0 : 0.0);"]
+    merged = f"{tags[-1]}_st"
+    for t in reversed(tags[:-1]):
+        merged = f"({t}_st ? {t}_st : {merged})"
+    return lines + [f"code = {merged};",
+                    f"code = (code == 0 && !_VP_FINITE(X1, X2, X3)) ? {RESULTS.nonfinite} : code;"]
+
+
 def _rk4_body(field) -> list[str]:
     s = field.symbols
     a = [sp.sympify(e) for e in field.exprs]
@@ -298,6 +354,8 @@ def _stage_body(stage: Any, newton: bool, fixed: bool) -> list[str]:
         return _rk4_body(stage.field) + (["ok = _VP_FINITE(X1, X2, X3) ? 1.0 : 0.0;"] if fixed else [])
     if isinstance(stage, CorrectionStage):
         return _correction_body(stage, newton, fixed)
+    if isinstance(stage, DLStage):
+        return _dl_body(stage, newton, fixed)
     return _map_body(stage, newton, fixed)
 
 

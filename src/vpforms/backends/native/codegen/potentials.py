@@ -14,8 +14,9 @@ adjunction leave it unchanged, see :meth:`MapStage.relabel`).
   methods lambdify) with the matrix entries substituted;
 
 and S1/S2 on nonlinear fields, Quispel's correction maps, as a :class:`CorrectionStage` (three
-scalar equations, not a generating map) when the correction integral has a closed form; otherwise
-the reason why not (DL classes: L_d has no closed form; a quadrature correction).
+scalar equations, not a generating map) when the correction integral has a closed form; and the DL
+classes evaluated as their θ-stages (``fast=True``), as a :class:`DLStage`. Otherwise the reason
+why not (the DL engine form: L_d has no closed form; a quadrature correction).
 """
 
 from __future__ import annotations
@@ -29,7 +30,8 @@ from ...._case import Case
 from ....symbolic import _symbols as G
 from ....symbolic.recipes import flip_generic
 
-__all__ = ["CORR_S", "CorrectionStage", "MapStage", "RK4Stage", "class_stage", "symbolic_reason"]
+__all__ = ["CORR_S", "DL_QPC", "CorrectionStage", "DLStage", "MapStage", "RK4Stage", "ThetaStage",
+           "class_stage", "symbolic_reason"]
 
 
 @dataclass(frozen=True)
@@ -92,6 +94,39 @@ class CorrectionStage:
 #: the integration variable of :attr:`CorrectionStage.W`
 CORR_S = sp.Symbol("s_corr")
 
+#: (q, p, c): the arguments of a θ-stage's Hamiltonian :attr:`ThetaStage.H`
+DL_QPC = sp.symbols("q_dl p_dl c_dl")
+
+
+@dataclass(frozen=True)
+class ThetaStage:
+    """One θ-stage (:func:`vpforms._methods._lagrangian.dl_stage`) of H(q, p; c) on the coordinates
+    (x_q, x_p) with x_c frozen, ``idx`` = (q, p, c) 0-based: p̄ = p₀ − h(1−θ)∂_qH(q_θ, p̄),
+    q₁ = q₀ + h∂_pH(q_θ, p̄), p₁ = p̄ − hθ∂_qH(q_θ, p̄) — nested scalar roots, q₁ outer, p̄ inner."""
+
+    H: sp.Expr  # in DL_QPC
+    theta: float
+    idx: tuple[int, int, int]
+    newton: tuple[float, int, float]
+
+
+@dataclass(frozen=True)
+class DLStage:
+    """A DL step (SE+DL, DL+DL with ``fast=True``, :class:`vpforms._methods.se_dl.DLPredictor`) as
+    its θ-stages in sequence; the status is the first failure of their solves, then non-finite."""
+
+    stages: tuple[ThetaStage, ...]
+
+    def relabel(self, pi) -> "DLStage":
+        """X = Ψ(x·π)·π⁻¹: a stage acting on (x·π)_q = x_{π(q)} acts on x_{π(q)}."""
+        idx = pi.index
+        return DLStage(tuple(replace(s, idx=tuple(idx[i] for i in s.idx)) for s in self.stages))
+
+    def adjoint(self) -> "DLStage":
+        """Ψ*_h = (Ψ_{−h})⁻¹: the inverse of a θ-stage at −h is the (1−θ)-stage at h, so the
+        stages in reverse order with θ → 1 − θ (``DLPredictor._stages_inverse``)."""
+        return DLStage(tuple(replace(s, theta=1.0 - s.theta) for s in reversed(self.stages)))
+
 
 def symbolic_reason(field: Any) -> str | None:
     """None if ``field`` has SymPy expressions without free parameters, else why not."""
@@ -123,14 +158,16 @@ def class_stage(m: Any) -> MapStage | str:
     from ...._methods.se_se import SESE
 
     name = getattr(m, "name", type(m).__name__)
-    if isinstance(m, (DLDL, SEDL)):
-        return (f"{name}: the DL potentials are discrete Lagrangians L_d, defined through an inner "
-                "Newton solve for p̄ (no SymPy expression); nested solves are not generated "
-                "natively")
+    if isinstance(m, (DLDL, SEDL)) and not m.fast:
+        return (f"{name}: the engine form (fast=False) solves the generating map of discrete "
+                "Lagrangians L_d, defined through an inner Newton solve for p̄ (no SymPy "
+                "expression); fast=True — the same map as nested θ-stages — is generated natively")
     field = getattr(m, "field", None)
     why = symbolic_reason(field)
     if why:
         return why
+    if isinstance(m, (DLDL, SEDL)):
+        return _dl_stage(m)
     a = _to_x(field, field.exprs)
     if isinstance(m, QuispelCorrection):
         return _correction_stage(m, a)
@@ -169,3 +206,22 @@ def _correction_stage(m, a) -> CorrectionStage | str:
     if extra:
         return f"{m.name}: correction has unsubstituted parameters {sorted(map(str, extra))}"
     return CorrectionStage(a, W, tuple(m.roles), _newton(m))
+
+
+def _dl_stage(m) -> DLStage | str:
+    """H¹(q, p; c) = G¹(c, q, p) on (x₂, x₃) with x₁ frozen, then H²(q, p; c) = −G²(q, c, p) on
+    (x₁, x₃) with x₂ frozen (θ₂ = θ for DL+DL, 0 for SE+DL), as ``DLPredictor._init_predictor``."""
+    from ...._methods.dl_dl import DLDL
+
+    pots = m.field.dl_potential_exprs
+    if pots is None:
+        return f"{m.name}: DL potentials have no closed form (quadrature); native needs them symbolic"
+    G1, G2 = _to_x(m.field, pots)
+    q, p, c = DL_QPC
+    H1 = G1.xreplace({G.x[0]: c, G.x[1]: q, G.x[2]: p})
+    H2 = -G2.xreplace({G.x[0]: q, G.x[1]: c, G.x[2]: p})
+    extra = (H1.free_symbols | H2.free_symbols) - set(DL_QPC)
+    if extra:
+        return f"{m.name}: potentials have unsubstituted parameters {sorted(map(str, extra))}"
+    n, theta2 = _newton(m), (m.theta if isinstance(m, DLDL) else 0.0)
+    return DLStage((ThetaStage(H1, m.theta, (1, 2, 0), n), ThetaStage(H2, theta2, (0, 2, 1), n)))
