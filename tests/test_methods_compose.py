@@ -18,7 +18,9 @@ import pytest
 from jax import lax
 
 from vpforms import Case, compose, scheme
-from vpforms._methods import COMPOSITIONS, Composition, SymmetricPair
+from vpforms._methods import (ADJOINT_COMPOSITIONS, COMPOSITIONS, AdjointComposition, Composition,
+                              SymmetricPair)
+from vpforms._methods.compose import from_splitting
 from vpforms.problems import get
 
 from .test_methods_helpers import fit_order, reference_flow, step_det
@@ -77,6 +79,63 @@ def test_order_two_from_the_free_algebra_too():
     # Ψ*_{h/2}∘Ψ_{h/2} has no even terms: with Ψ_h = exp(hE₁ + h²E₂ + …) this is the statement
     # that the (h/2)² terms cancel; the composition coefficients above start from it.
     assert composition_defect((1.0,), 2)[1] == 0.0
+
+
+def adjoint_composition_defect(betas, alphas, wmax):
+    """max |coefficient| per weight of Ψ*_{α_s}∘Ψ_{β_s}∘…∘Ψ_{β_1} − exp(E₁) for a generic
+    method Ψ_h = exp(Σ_k h^k E_k) (all k: Ψ is not symmetric), whose adjoint is
+    Ψ*_h = (Ψ_{−h})⁻¹ = exp(Σ_k (−1)^{k+1} h^k E_k)."""
+    letters = {k: chr(ord("A") + k - 1) for k in range(1, wmax + 1)}
+
+    def weight(w):
+        return sum(k for k, l in letters.items() for ch in w if ch == l)
+
+    def mul(u, v):
+        out = {}
+        for wu, cu in u.items():
+            for wv, cv in v.items():
+                if weight(wu + wv) <= wmax:
+                    out[wu + wv] = out.get(wu + wv, 0.0) + cu * cv
+        return out
+
+    def exp(gen):
+        out, term = {"": 1.0}, {"": 1.0}
+        for n in range(1, wmax + 1):
+            term = mul(term, gen)
+            for w, c in term.items():
+                out[w] = out.get(w, 0.0) + c / factorial(n)
+        return out
+
+    prod = {"": 1.0}
+    for b, a in zip(betas, alphas):  # Ψ_β acts first, then Ψ*_α: left multiplication
+        prod = mul(exp({letters[k]: b**k for k in letters}), prod)
+        prod = mul(exp({letters[k]: (-1) ** (k + 1) * a**k for k in letters}), prod)
+    exact = exp({"A": 1.0})
+    defect = {}
+    for w in set(prod) | set(exact):
+        d = abs(prod.get(w, 0.0) - exact.get(w, 0.0))
+        defect[weight(w)] = max(defect.get(weight(w), 0.0), d)
+    return defect
+
+
+@pytest.mark.parametrize("key", sorted(ADJOINT_COMPOSITIONS))
+def test_adjoint_composition_coefficients_satisfy_their_order_conditions(key):
+    """Every word up to weight p of the generic non-symmetric Ψ cancels (order p for *every*
+    order-1 method), weight p + 1 does not; the palindrome makes the method symmetric."""
+    order, _ = key
+    betas, alphas = ADJOINT_COMPOSITIONS[key]
+    seq = [c for b, a in zip(betas, alphas) for c in (b, a)]
+    assert np.allclose(seq, seq[::-1], rtol=0, atol=1e-14)
+    d = adjoint_composition_defect(betas, alphas, order + 1)
+    assert max(d[w] for w in range(1, order + 1)) <= 1e-13, d
+    assert d[order + 1] >= 1e-5, d
+
+
+def test_from_splitting_rejects_an_inconsistent_splitting_and_inverts_lie_trotter():
+    assert from_splitting((1.0, 0.0), (1.0,)) == ((1.0,), (0.0,))  # Ψ itself
+    assert from_splitting((0.5, 0.5), (1.0,)) == ((0.5,), (0.5,))  # Strang = Ψ*_{h/2}∘Ψ_{h/2}
+    with pytest.raises(ValueError, match="consistent"):
+        from_splitting((0.5, 0.6), (1.0,))
 
 
 # -- adjoint -------------------------------------------------------------------------------------
@@ -148,12 +207,15 @@ def test_adjoint_composition_has_order_two(cls, opts, field_name):
         ("SE+SE", "abc", 6, "yoshida", (3, 4, 5, 6)),
         ("S1", "lotka_volterra", 4, "suzuki", (4, 6, 8, 12)),
         ("S1", "lotka_volterra", 6, "kahan_li", (3, 4, 5, 6)),
+        ("SE+SE", "abc", 4, "blanes_moan", (3, 4, 6, 8)),
+        ("S1", "lotka_volterra", 4, "blanes_moan", (3, 4, 6, 8)),
     ],
 )
 def test_higher_order_compositions(cls, field_name, order, scheme_name, ns):
     field = get(field_name).field
     m = compose(scheme(field, cls), order=order, scheme=scheme_name)
-    assert isinstance(m, Composition) and m.order == order and m.symmetric
+    kind = AdjointComposition if scheme_name == "blanes_moan" else Composition
+    assert isinstance(m, kind) and m.order == order and m.symmetric
     x0 = ABC_X0 if field_name == "abc" else LV_X0
     p, errs = observed_order(m, field, x0, 1.0, ns)
     assert abs(p - order) <= 0.1 * order / 2, (p, errs)
@@ -162,8 +224,8 @@ def test_higher_order_compositions(cls, field_name, order, scheme_name, ns):
 def test_compositions_are_symmetric_and_checked():
     field = get("abc").field
     x = jnp.asarray(ABC_X0)
-    for order in (2, 4):
-        m = compose(scheme(field, "SE+SE", recover=False), order=order)
+    for order, name in ((2, None), (4, None), (4, "blanes_moan")):
+        m = compose(scheme(field, "SE+SE", recover=False), order=order, scheme=name)
         back = m.step(m.step(x, 0.1), -0.1)  # S_{−h}∘S_h = id for a symmetric method
         assert float(jnp.max(jnp.abs(back - x))) <= 1e-13
         # a composition of volume-preserving steps is volume preserving: det by jax.jacfwd

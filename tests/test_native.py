@@ -47,12 +47,13 @@ def methods():
         prob = P.get(pn)
         b = vp.scheme(prob.field, "SE+SE")
         out[pn] = (prob, {"RK4": vp.RK4(prob.field), "SE+SE": b, "adjoint": b.adjoint(),
-                          "order 2": vp.compose(b, 2), "order 4": vp.compose(b, 4)})
+                          "order 2": vp.compose(b, 2), "order 4": vp.compose(b, 4),
+                          "order 4 BM": vp.compose(b, 4, "blanes_moan")})
     return out
 
 
 @pytest.mark.parametrize("pn", ["abc", "rigid_body"])
-@pytest.mark.parametrize("which", ["RK4", "SE+SE", "adjoint", "order 2", "order 4"])
+@pytest.mark.parametrize("which", ["RK4", "SE+SE", "adjoint", "order 2", "order 4", "order 4 BM"])
 def test_native_equals_jax_after_100_steps(methods, pn, which):
     prob, ms = methods[pn]
     m = ms[which]
@@ -73,7 +74,7 @@ def _native_step(m, x, h):
     return xs[:, 1]
 
 
-@pytest.mark.parametrize("which", ["SE+SE", "order 4"])
+@pytest.mark.parametrize("which", ["SE+SE", "order 4", "order 4 BM"])
 def test_native_step_preserves_volume(methods, which):
     """det of the central-difference Jacobian of the native step: 1 up to the FD error O(ε²)."""
     _, ms = methods["abc"]
@@ -177,9 +178,9 @@ def test_unsupported_methods_fall_back_or_raise():
     if g is not None:
         name, why = select_backend(vp.RK4(g), "auto")
         assert name == "jax" and "Field.from_sympy" in why
-    m = vp.scheme(f, "DL+DL")
+    m = vp.scheme(f, "DL+DL")  # the engine form (fast=False)
     assert select_backend(m, "auto")[0] == "jax"
-    with pytest.raises(NativeUnavailableError, match="not generated natively"):
+    with pytest.raises(NativeUnavailableError, match="engine form"):
         select_backend(m, "native")
     with pytest.raises(ValueError, match="backend must be"):
         select_backend(m, "cuda")
@@ -226,7 +227,11 @@ def test_cli_run_says_which_backend_ran(tmp_path, capsys):
     assert "native" in capsys.readouterr().out
     assert main(["run", "--steps", "5", "--method", "DL+DL", "--backend", "native", "--out", str(out)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and err[0].startswith("vpforms: error:") and "not generated natively" in err[0]
+    assert len(err) == 1 and err[0].startswith("vpforms: error:") and "engine form" in err[0]
+    assert "--fast" in err[0]  # what to do instead; and that runs natively:
+    assert main(["run", "--steps", "5", "--particles", "3", "--method", "DL+DL", "--fast",
+                 "--backend", "native", "--out", str(out)]) == 0
+    assert "native" in capsys.readouterr().out
 
 
 # ---- the generic engine (Newton) ----------------------------------------------------------------
@@ -268,11 +273,22 @@ def _rotation():
 
 
 _PROBLEMS = {  # class → the problems its cases are checked on (S1/S2: the linear recipe on a
-    # linear field, Quispel's correction map (closed-form f_c) on a nonlinear one)
+    # linear field, Quispel's correction map (closed-form f_c) on a nonlinear one; the DL classes
+    # as their nested θ-stages, fast=True)
     "SE+SE": ("abc", "lotka_volterra"),
     "S1": ("rotation", "lotka_volterra"),
     "S2": ("rotation", "lotka_volterra"),
+    "DL+DL": ("abc", "lotka_volterra"),
+    "SE+DL": ("abc", "tokamak"),
 }
+
+_DL = ("DL+DL", "SE+DL")
+
+
+def _scheme(f, case, **kw):
+    """The bare method of ``case``; the DL classes in their natively generated form (fast=True)."""
+    cls = case if isinstance(case, str) else case.cls
+    return vp.scheme(f, case, recover=False, **({"fast": True} if cls in _DL else {}), **kw)
 
 
 def _problem(pn):
@@ -284,7 +300,7 @@ def _problem(pn):
 
 @pytest.fixture(scope="module")
 def fields():
-    return {pn: _problem(pn) for pn in ("abc", "lotka_volterra", "rotation", "linear")}
+    return {pn: _problem(pn) for pn in ("abc", "lotka_volterra", "rotation", "linear", "tokamak")}
 
 
 def _agree(a, b, tol=1e-11):
@@ -301,10 +317,11 @@ _GENERATED = [pytest.param(cls, pn, c, id=f"{cls}-{pn}-{c}")
 
 @pytest.mark.parametrize("cls, pn, case", _GENERATED)
 def test_every_generated_case_equals_jax(fields, cls, pn, case):
-    """All 6 cases of SE+SE, S1 and S2 (relabelled representatives), 100 steps, on two problems
-    each (one kernel per case and problem: the relabelled field's potentials differ)."""
+    """All 36 cases: the 6 of each class (relabelled representatives, and the adjoints of the SE+DL
+    3-cycles), 100 steps, on two problems each (one kernel per case and problem: the relabelled
+    field's potentials differ)."""
     f, x0 = fields[pn]
-    m = vp.scheme(f, case, recover=False)
+    m = _scheme(f, case)
     assert m.case == case and select_backend(m, "native")[0] == "native"
     a = vp.integrate(m, x0, 0.05, 100, save_every=50, backend="native")
     b = vp.integrate(m, x0, 0.05, 100, save_every=50, backend="jax")
@@ -313,7 +330,19 @@ def test_every_generated_case_equals_jax(fields, cls, pn, case):
 
 
 _COMPOSED = [("lotka_volterra", "SE+SE"), ("abc", "SE+SE"), ("rotation", "S1"), ("linear", "S2"),
-             ("abc", "S1"), ("lotka_volterra", "S2")]
+             ("abc", "S1"), ("lotka_volterra", "S2"), ("tokamak", "DL+DL"), ("abc", "SE+DL")]
+
+
+@pytest.mark.parametrize("case", [c for c in vp.cases() if c.cls == "DL+DL"], ids=str)
+def test_every_dldl_case_with_midpoint_stages_equals_jax(fields, case):
+    """θ = ½ (implicit-midpoint-type stages: p̄ depends on q₁, so the inner solve sits inside the
+    outer Newton) for the 6 DL+DL cases on ABC."""
+    f, x0 = fields["abc"]
+    m = _scheme(f, case, theta=0.5)
+    a = vp.integrate(m, x0, 0.1, 100, save_every=50, backend="native")
+    b = vp.integrate(m, x0, 0.1, 100, save_every=50, backend="jax")
+    assert np.all(b.status == 0)
+    _agree(a, b)
 
 
 @pytest.mark.parametrize("order", [2, 4])
@@ -323,7 +352,7 @@ def test_compositions_of_relabelled_cases_equal_jax(fields, pn, cls, order):
     Lotka–Volterra and for the linear recipes (the inverse Newton engine), on a relabelled case."""
     f, x0 = fields[pn]
     case = next(c for c in vp.cases() if c.cls == cls and c.sigma != (3, 2, 1))
-    m = vp.compose(vp.scheme(f, case, recover=False), order)
+    m = vp.compose(_scheme(f, case), order)
     assert select_backend(m, "native")[0] == "native"
     a = vp.integrate(m, x0, 0.05, 100, save_every=50, backend="native")
     b = vp.integrate(m, x0, 0.05, 100, save_every=50, backend="jax")
@@ -370,14 +399,43 @@ def test_recovery_of_a_relabelled_case_agrees_with_jax(fields):
 
 
 @pytest.mark.parametrize("cls", ["DL+DL", "SE+DL"])
-def test_dl_classes_are_left_on_jax_and_say_why(cls):
-    """DL potentials are discrete Lagrangians (an inner Newton for p̄): "auto" runs them on JAX
-    and "native" says why."""
+def test_dl_engine_form_is_left_on_jax_and_says_why(cls):
+    """fast=False solves the generating map of L_d (an inner Newton for p̄ inside a potential):
+    "auto" runs it on JAX and "native" says why, pointing at fast=True."""
     m = vp.scheme(P.get("lotka_volterra").field, cls, recover=False)
     name, why = select_backend(m, "auto")
-    assert name == "jax" and "discrete Lagrangians" in why
+    assert name == "jax" and "discrete Lagrangians" in why and "fast=True" in why
     with pytest.raises(NativeUnavailableError, match="inner Newton"):
         select_backend(m, "native")
+    assert select_backend(_scheme(P.get("lotka_volterra").field, cls), "auto")[0] == "native"
+
+
+@pytest.mark.parametrize("theta", [0.0, 0.5])
+def test_native_dl_step_preserves_volume(fields, theta):
+    """det of the central-difference Jacobian of the native DL+DL step (a relabelled case) = 1 up
+    to the FD error, and = the JAX jacfwd of the same step."""
+    f, _ = fields["abc"]
+    case = next(c for c in vp.cases() if c.cls == "DL+DL" and c.sigma == (2, 1, 3))
+    m, h, eps = _scheme(f, case, theta=theta), 0.3, 1e-5
+    x = np.array([[0.3, 1.1, 2.2], [4.0, 0.5, 5.5]])
+    J = np.stack([(_native_step(m, x + e, h) - _native_step(m, x - e, h)) / (2 * eps)
+                  for e in np.eye(3) * eps], axis=-1)
+    assert np.max(np.abs(np.linalg.det(J) - 1.0)) < 1e-8
+    Jj = np.stack([np.asarray(jax.jacfwd(lambda p: m.step(p, h))(jnp.asarray(p))) for p in x])
+    assert np.max(np.abs(J - Jj)) < 1e-8
+
+
+@pytest.mark.parametrize("max_iter", [1, 2])
+def test_dl_newton_failure_is_frozen_like_jax(fields, max_iter):
+    """θ = ½ on Lotka–Volterra needs more than 1–2 Newton iterations (outer or inner): the native
+    lanes fail at the step JAX fails, with its status, and stay finite."""
+    f, x0 = fields["lotka_volterra"]
+    m = _scheme(f, "DL+DL", theta=0.5, newton={"max_iter": max_iter})
+    a = vp.integrate(m, x0, 0.1, 20, save_every=1, backend="native")
+    b = vp.integrate(m, x0, 0.1, 20, save_every=1, backend="jax")
+    assert np.any(b.status == RESULTS.not_converged)
+    _agree(a, b)
+    assert np.all(np.isfinite(a.xs))
 
 
 def test_quadrature_correction_is_left_on_jax_and_says_why():
@@ -395,6 +453,20 @@ def test_lanes_the_vectorised_pass_leaves_undecided_are_redone_exactly(fields, m
     f, x0 = fields["lotka_volterra"]
     m = vp.compose(vp.scheme(f, "SE+SE", recover=False), 2)  # a fresh method: a fresh kernel
     assert "n2_run = n2_run * (1.0 - fail)" in emit.kernel_source(m)  # an implicit solve, 1 pass
+    a = vp.integrate(m, x0, 0.05, 100, save_every=50, backend="native")
+    b = vp.integrate(m, x0, 0.05, 100, save_every=50, backend="jax")
+    assert np.all(b.status == 0)
+    _agree(a, b)
+
+
+def test_dl_lanes_the_vectorised_pass_leaves_undecided_are_redone_exactly(fields, monkeypatch):
+    """The same with the nested solves of a DL+DL θ = ½ step (outer q₁, inner p̄)."""
+    from vpforms.backends.native.codegen import emit
+
+    monkeypatch.setattr(emit, "FIXED_ITERS", 1)
+    f, x0 = fields["tokamak"]
+    m = _scheme(f, "DL+DL", theta=0.5)
+    assert "t0i_run = t0i_run * (1.0 - fail)" in emit.kernel_source(m)  # nested, 1 pass
     a = vp.integrate(m, x0, 0.05, 100, save_every=50, backend="native")
     b = vp.integrate(m, x0, 0.05, 100, save_every=50, backend="jax")
     assert np.all(b.status == 0)

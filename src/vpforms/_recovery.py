@@ -78,7 +78,7 @@ def _host_step(method: Any, x: np.ndarray, h: float, bare_failed: bool = False):
     their ``_batched_step``); ``how`` is then the largest code of the stages.  ``bare_failed``:
     the caller already knows the bare step failed at every point (skip it).
     """
-    from ._methods.compose import Composition, SymmetricPair
+    from ._methods.compose import AdjointComposition, Composition, SymmetricPair
     from ._methods.recover import Recovering
 
     if isinstance(method, Recovering):
@@ -106,6 +106,12 @@ def _host_step(method: Any, x: np.ndarray, h: float, bare_failed: bool = False):
         X, st, how = x, np.zeros(x.shape[0], np.int32), np.zeros(x.shape[0], np.int32)
         for g in method.gammas:
             X, s, r = _host_step(method.base, X, g * h)
+            st, how = np.where(st != RESULTS.successful, st, s), np.maximum(how, r)
+        return X, st, how
+    if isinstance(method, AdjointComposition):  # Ψ*_{α_s h}∘Ψ_{β_s h}∘…∘Ψ_{β_1 h}
+        X, st, how = x, np.zeros(x.shape[0], np.int32), np.zeros(x.shape[0], np.int32)
+        for m, c in method.stages:
+            X, s, r = _host_step(m, X, c * h)
             st, how = np.where(st != RESULTS.successful, st, s), np.maximum(how, r)
         return X, st, how
     if bare_method(method) is method:  # a bare (part of a) method: no recovery

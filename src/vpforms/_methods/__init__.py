@@ -7,7 +7,8 @@ higher order by composition (compose). Every recipe hands its potentials to the 
 """
 
 from ._base import Adjoint, GeneratingMethod, Method, RecipeError, Relabelled
-from .compose import COMPOSITIONS, Composition, SymmetricPair, compose, triple_jump
+from .compose import (ADJOINT_COMPOSITIONS, COMPOSITIONS, AdjointComposition, Composition,
+                      SymmetricPair, compose, triple_jump)
 from .correction import QuispelCorrection, QuispelS1, QuispelS2
 from .dl_dl import DLDL
 from .s1 import S1
@@ -34,6 +35,8 @@ __all__ = [
     "scheme",
     "representative_method",
     "compose",
+    "ADJOINT_COMPOSITIONS",
+    "AdjointComposition",
     "COMPOSITIONS",
     "Composition",
     "SymmetricPair",

@@ -5,6 +5,10 @@
   coefficients of :data:`COMPOSITIONS` (data): triple jump (Creutz–Gocksch, Suzuki, Yoshida 1990),
   Suzuki's 5-stage order 4, Yoshida's 7-stage order 6 ("solution A") and Kahan–Li's 9-stage order 6
   (s9odr6a). Their order conditions (Σγ = 1, Σγ³ = 0, …) are checked in the tests.
+* order 4, "blanes_moan": a composition of Ψ with its adjoint, Ψ*_{α_s h}∘Ψ_{β_s h}∘…∘Ψ*_{α_1 h}∘
+  Ψ_{β_1 h} (HLW V.3.2, eq. (3.4)) with Blanes & Moan's optimised coefficients
+  (:data:`ADJOINT_COMPOSITIONS`): 12 order-1 stages where Suzuki's has 10, with a leading error ~20×
+  smaller (measured on ABC), so fewer steps for a given accuracy.
 """
 
 from __future__ import annotations
@@ -17,7 +21,8 @@ from jax import lax
 from .._spec import records_spec
 from ._base import Method, merge_status
 
-__all__ = ["compose", "COMPOSITIONS", "Composition", "SymmetricPair", "triple_jump"]
+__all__ = ["compose", "ADJOINT_COMPOSITIONS", "AdjointComposition", "COMPOSITIONS", "Composition",
+           "SymmetricPair", "triple_jump"]
 
 
 def triple_jump(order: int) -> tuple[float, ...]:
@@ -58,6 +63,37 @@ COMPOSITIONS: dict[tuple[int, str], tuple[float, ...]] = {
     (6, "kahan_li"): _KL9 + _KL9[-2::-1],
 }
 DEFAULT = {4: "suzuki", 6: "kahan_li"}
+
+
+def from_splitting(a, b) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """(β, α) of Ψ*_{α_s h}∘Ψ_{β_s h}∘…∘Ψ*_{α_1 h}∘Ψ_{β_1 h} from a splitting method
+    e^{a_{s+1}hA}e^{b_s hB}…e^{b_1 hB}e^{a_1 hA} (a₁ acts first): with Ψ_h = e^{hB}∘e^{hA} (Lie–Trotter),
+    Ψ*_h = e^{hA}∘e^{hB}, the product is that splitting when a₁ = β₁, b_i = β_i + α_i,
+    a_{i+1} = α_i + β_{i+1} (HLW V.3.2); a splitting of order p gives a composition of order p for
+    every method Ψ of order ≥ 1 (the order conditions do not depend on Ψ)."""
+    beta, alpha = [a[0]], []
+    for i, bi in enumerate(b):
+        alpha.append(bi - beta[i])
+        if i + 1 < len(b):
+            beta.append(a[i + 1] - alpha[i])
+    if abs(alpha[-1] - a[-1]) > 1e-14:
+        raise ValueError("a, b are not the coefficients of a consistent splitting")
+    return tuple(beta), tuple(alpha)
+
+
+def _blanes_moan_s6():
+    """Blanes & Moan, J. Comput. Appl. Math. 142 (2002) 313–330, Table 2, S6 (order 4, 6 stages):
+    a = (a₁, a₂, a₃, a₄, a₃, a₂, a₁), b = (b₁, b₂, b₃, b₃, b₂, b₁)."""
+    a1, a2, a3 = 0.0792036964311957, 0.353172906049774, -0.0420650803577195
+    b1, b2 = 0.209515106613362, -0.143851773179818
+    a4, b3 = 1.0 - 2.0 * (a1 + a2 + a3), 0.5 - (b1 + b2)
+    return from_splitting((a1, a2, a3, a4, a3, a2, a1), (b1, b2, b3, b3, b2, b1))
+
+
+#: (order, name) → (β, α) of the composition of a method with its adjoint (:class:`AdjointComposition`).
+ADJOINT_COMPOSITIONS: dict[tuple[int, str], tuple[tuple[float, ...], tuple[float, ...]]] = {
+    (4, "blanes_moan"): _blanes_moan_s6(),
+}
 
 
 class SymmetricPair(Method):
@@ -139,6 +175,53 @@ class Composition(Method):
         return out
 
 
+class AdjointComposition(Method):
+    """Ψ*_{α_s h}∘Ψ_{β_s h}∘…∘Ψ*_{α_1 h}∘Ψ_{β_1 h} (HLW V.3.2, eq. (3.4)): the method ``base`` and
+    its adjoint in alternation, ``stages`` = ((Ψ, β₁), (Ψ*, α₁), …) in the order they act.
+    Symmetric when the sequence of coefficients is a palindrome (α_i = β_{s+1−i})."""
+
+    def __init__(self, base: Method, betas, alphas, order: int, scheme_name: str):
+        self.base, self.adj = base, base.adjoint()
+        self.betas, self.alphas = tuple(map(float, betas)), tuple(map(float, alphas))
+        self.stages = tuple((m, c) for b, a in zip(self.betas, self.alphas)
+                            for m, c in ((self.base, b), (self.adj, a)))
+        self.case, self.field = base.case, base.field
+        coef = [c for _, c in self.stages]
+        self.order, self.symmetric = int(order), bool(np.allclose(coef, coef[::-1], rtol=0, atol=1e-14))
+        self.scheme_name = scheme_name
+        self.name = f"{scheme_name}{order}[{base.name}]"
+
+    def _forward(self, x, h):
+        st, n = jnp.int32(0), jnp.int32(0)
+        for m, c in self.stages:
+            x, s, k = m._forward(x, c * h)
+            st, n = merge_status(st, s), n + k
+        return x, st, n
+
+    def _backward(self, X, h):
+        st, n = jnp.int32(0), jnp.int32(0)
+        for m, c in reversed(self.stages):
+            X, s, k = m._backward(X, c * h)
+            st, n = merge_status(st, s), n + k
+        return X, st, n
+
+    def _batched_step(self, x, h):  # stage by stage: each stage decides its own recovery
+        z = jnp.zeros(x.shape[0], jnp.int32)
+        st, n, r = z, z, z
+        for m, c in self.stages:
+            x, s, k, q = m._batched_step(x, c * h)
+            st, n, r = _merge(st, s), n + k, jnp.maximum(r, q)
+        return x, st, n, r
+
+    def _strip_recovery(self) -> Method:
+        bare = self.base.without_recovery()
+        if bare is self.base:
+            return self
+        out = AdjointComposition(bare, self.betas, self.alphas, self.order, self.scheme_name)
+        out.name = self.name.replace(self.base.name, bare.name)
+        return out
+
+
 def _merge(a, b):
     return jnp.where(a == 0, b, a).astype(jnp.int32)
 
@@ -149,7 +232,9 @@ def compose(method: Method, order: int = 2, scheme: str | None = None) -> Method
 
     order 2: Ψ*_{h/2}∘Ψ_{h/2}; order 4: ``scheme`` "suzuki" (default) or "triple_jump"; order 6:
     "kahan_li" (default), "yoshida" or "triple_jump" — each a symmetric composition of the order-2
-    method (or of ``method`` itself if it is already symmetric of order ≥ 2).
+    method (or of ``method`` itself if it is already symmetric of order ≥ 2). Order 4,
+    "blanes_moan": ``method`` and its adjoint in alternation (:class:`AdjointComposition`, 12
+    stages), the cheapest order 4 here for a given accuracy.
     """
     if not isinstance(method, Method):
         raise TypeError(f"compose needs a vpforms method (vpforms.scheme(...)), got {type(method).__name__}")
@@ -161,7 +246,9 @@ def compose(method: Method, order: int = 2, scheme: str | None = None) -> Method
             raise ValueError("order 2 is Ψ*_{h/2}∘Ψ_{h/2}; it takes no scheme")
         return base
     name = DEFAULT[order] if scheme is None else scheme
+    if (order, name) in ADJOINT_COMPOSITIONS:
+        return AdjointComposition(method, *ADJOINT_COMPOSITIONS[(order, name)], order, name)
     if (order, name) not in COMPOSITIONS:
-        known = [n for (o, n) in COMPOSITIONS if o == order]
+        known = [n for (o, n) in [*COMPOSITIONS, *ADJOINT_COMPOSITIONS] if o == order]
         raise ValueError(f"unknown order-{order} composition {name!r}; known: {known}")
     return Composition(base, COMPOSITIONS[(order, name)], order, name)

@@ -284,14 +284,21 @@ def _theta_c(st: ThetaStage, w: tuple[str, str, str], tag: str, newton: bool,
     def inner(t):  # p̄ at q₁ = {tag}_q1: defines {tag}_pb and {t}_st / {t}_ok
         return _solve_c(f"{tag}_pb", gp, {pb: z}, w[1], st.newton, t, newton, fixed)
 
-    body = [f"double {tag}_q1 = z;", *inner(f"{tag}i")]
-    body += [f"{tag}_okin = {tag}_okin * {tag}i_ok;"] if fixed else []
-    body += _assign([f"{tag}o_g", f"{tag}o_dg"], [gq, dgq], {}, f"{tag}oc")
-    lines = [f"double {tag}_okin = 1.0;"] if fixed else []
-    lines += _assign([f"{tag}_guess"], [q0 + h * Hp.xreplace({q: q0, p: p0, c: cc})], {}, f"{tag}gc")
-    lines += (_newton_fixed_c if fixed else _newton_c)(f"{tag}_Q1", f"{tag}_guess", body,
-                                                        st.newton, f"{tag}o")
-    lines += [f"double {tag}_q1 = {tag}_Q1;", *inner(f"{tag}f")]
+    lines = _assign([f"{tag}_guess"], [q0 + h * Hp.xreplace({q: q0, p: p0, c: cc})], {}, f"{tag}gc")
+    if q1 not in gp.free_symbols:  # θ = 0 or 1: p̄ does not depend on q₁ (symplectic Euler) — solve
+        # it once (every inner solve of dl_stage gives this same p̄), then g_q is explicit in q₁
+        lines += inner(f"{tag}f")
+        lines += _solve_c(f"{tag}_Q1", gq, {q1: z}, f"{tag}_guess", st.newton, f"{tag}o",
+                          newton, fixed)
+        lines += [f"double {tag}_q1 = {tag}_Q1;"] + ([f"double {tag}_okin = 1.0;"] if fixed else [])
+    else:
+        body = [f"double {tag}_q1 = z;", *inner(f"{tag}i")]
+        body += [f"{tag}_okin = {tag}_okin * {tag}i_ok;"] if fixed else []
+        body += _assign([f"{tag}o_g", f"{tag}o_dg"], [gq, dgq], {}, f"{tag}oc")
+        lines += [f"double {tag}_okin = 1.0;"] if fixed else []
+        lines += (_newton_fixed_c if fixed else _newton_c)(f"{tag}_Q1", f"{tag}_guess", body,
+                                                            st.newton, f"{tag}o")
+        lines += [f"double {tag}_q1 = {tag}_Q1;", *inner(f"{tag}f")]
     lines += _assign([f"{tag}_P1"], [pb - h * th * Hq.xreplace(at)], {}, f"{tag}pc")
     lines += [f"{w[0]} = {tag}_Q1; {w[1]} = {tag}_P1;"]
     if fixed:

@@ -10,7 +10,8 @@ is the step's (the first failure wins, as ``merge_status``). The method tree tha
   (conjugation by π commutes with composition);
 * :class:`~vpforms._methods._base.Adjoint` Ψ*_h = (Ψ_{−h})⁻¹ (prop:switchperm): the adjoint of each
   stage, in reverse order, same coefficients;
-* ``SymmetricPair`` Ψ*_{h/2}∘Ψ_{h/2}, ``Composition`` S_{γ_s h}∘…∘S_{γ_1 h}: concatenation;
+* ``SymmetricPair`` Ψ*_{h/2}∘Ψ_{h/2}, ``Composition`` S_{γ_s h}∘…∘S_{γ_1 h},
+  ``AdjointComposition`` Ψ*_{α_s h}∘Ψ_{β_s h}∘…∘Ψ_{β_1 h}: concatenation;
 * recovering methods: their bare method (the runner recovers failed steps through JAX);
 * :class:`vpforms.RK4`: one explicit stage (no adjoint).
 """
@@ -32,18 +33,19 @@ def plan(method: Any) -> list[tuple[Any, float]] | str:
     """The stages of one step of ``method``, or the reason it cannot be generated."""
     from ...._integrate import RK4
     from ...._methods._base import Adjoint, Relabelled
-    from ...._methods.compose import Composition, SymmetricPair
+    from ...._methods.compose import AdjointComposition, Composition, SymmetricPair
 
     m = _bare(method)
     if isinstance(m, Composition):
         inner = plan(m.base)
         return inner if isinstance(inner, str) else [(s, c * g) for g in m.gammas for s, c in inner]
-    if isinstance(m, SymmetricPair):
+    if isinstance(m, (SymmetricPair, AdjointComposition)):
         fwd, adj = plan(m.base), plan(m.adj)
         for p in (fwd, adj):
             if isinstance(p, str):
                 return p
-        return [(s, 0.5 * c) for s, c in fwd] + [(s, 0.5 * c) for s, c in adj]
+        pairs = [(0.5, 0.5)] if isinstance(m, SymmetricPair) else zip(m.betas, m.alphas)
+        return [(s, g * c) for b, a in pairs for g, p in ((b, fwd), (a, adj)) for s, c in p]
     if isinstance(m, Adjoint):
         inner = plan(m.base)
         if isinstance(inner, str):
