@@ -60,7 +60,8 @@ def test_bench_native_smoke(tmp_path, monkeypatch):
     monkeypatch.setenv("VPFORMS_NATIVE_CACHE", str(tmp_path / "cache"))
     text = _smoke("bench_native", tmp_path)
     assert _check_value(text) < 1e-12  # the hand-written C reference is the same map
-    for needle in ("reference", "native SE+SE", "native order 4", "native RK4", "speed-up"):
+    for needle in ("reference", "native SE+SE", "native order 4", "Blanes–Moan", "native DL+DL",
+                   "native RK4", "speed-up"):
         assert needle in text, needle
 
 
