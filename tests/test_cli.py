@@ -78,6 +78,9 @@ def test_cases_and_classify(capsys):
         ["run", "--problem", "no_such_problem", "--steps", "2", "--particles", "2"],
         ["run", "--param", "C", "--steps", "2"],
         ["run", "--method", "rk4", "--order", "2", "--steps", "2"],
+        ["run", "--order", "4", "--composition", "nonsense", "--steps", "2", "--particles", "2"],
+        ["run", "--order", "2", "--composition", "suzuki", "--steps", "2", "--particles", "2"],
+        ["run", "--composition", "blanes_moan", "--steps", "2", "--particles", "2"],
         ["run", "--method", "XY+Z", "--steps", "2", "--particles", "2"],
         ["order", "--T", "1", "--hs", "0.3"],
         ["poincare", "--axis", "4"],
@@ -180,3 +183,23 @@ def test_demo_quick(tmp_path, capsys):
     assert str(out) in printed.replace("\n", "")
     flat = "".join(ch for ch in printed if not ch.isspace() and ch != "│")  # undo rich's wrapping
     assert "crossingsCSV:" + str(out / "poincare_abc.csv") in flat  # the closing box lists it
+
+
+def test_composition_chooses_the_order_4_coefficients(capsys, tmp_path):
+    """--composition blanes_moan: the method and its adjoint in alternation (12 stages), named in
+    the summary; the same run as the library's compose(..., 4, "blanes_moan")."""
+    import numpy as np
+
+    import vpforms as vp
+
+    out = tmp_path / "bm.npz"
+    assert main(["run", "--order", "4", "--composition", "blanes_moan", "--steps", "3",
+                 "--particles", "2", "--backend", "jax", "--out", str(out)]) == 0
+    assert "blanes_moan4" in capsys.readouterr().out
+    with np.load(out) as z:
+        xs = z["xs"]
+    prob = vp.problems.get("abc")
+    x0 = xs[:, 0]
+    ref = vp.integrate(vp.compose(vp.scheme(prob.field, "SE+SE"), 4, "blanes_moan"), x0, 0.1, 3,
+                       backend="jax")
+    assert np.max(np.abs(ref.xs[:, -1] - xs[:, -1])) <= 1e-13

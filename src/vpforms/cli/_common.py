@@ -140,22 +140,22 @@ _METHODS: dict = {}
 
 
 def _method(field, cls: str = "SE+SE", case=None, order: int = 1, fast: bool = False, theta=None,
-            recover: bool = True):
+            recover: bool = True, composition: str | None = None):
     """A vpforms method (class representative or explicit case, composed to ``order``) or RK4.
 
     Methods are cached per (field, options) so that repeated in-process calls (tests, the demo)
     reuse their compiled kernels.
     """
-    key = (id(field), str(cls).strip().upper(), case, order, fast, theta, recover)
+    key = (id(field), str(cls).strip().upper(), case, order, fast, theta, recover, composition)
     hit = _METHODS.get(key)
     if hit is not None and hit[0] is field:
         return hit[1]
-    m = _make_method(field, cls, case, order, fast, theta, recover)
+    m = _make_method(field, cls, case, order, fast, theta, recover, composition)
     _METHODS[key] = (field, m)
     return m
 
 
-def _make_method(field, cls, case, order, fast, theta, recover=True):
+def _make_method(field, cls, case, order, fast, theta, recover=True, composition=None):
     from .._integrate import RK4
 
     if str(cls).strip().lower() == "rk4":
@@ -178,10 +178,15 @@ def _make_method(field, cls, case, order, fast, theta, recover=True):
     except ValueError as exc:  # unknown class, option that does not apply, bad θ: a usage error
         raise CLIError(str(exc)) from None
     if order == 1:
+        if composition is not None:
+            raise CLIError("--composition chooses the coefficients of --order 4 or 6")
         return m
     if order not in (2, 4, 6):
         raise CLIError(f"--order must be 1, 2, 4 or 6, not {order}")
-    return compose(m, order=order)
+    try:
+        return compose(m, order=order, scheme=composition)
+    except ValueError as exc:  # unknown composition for that order
+        raise CLIError(f"--composition: {exc}") from None
 
 
 def _method_from_args(args, field):
@@ -191,7 +196,7 @@ def _method_from_args(args, field):
 
         case = Case(_parse_perm(args.case[0]), _parse_perm(args.case[1]))
     return _method(field, args.method, case, args.order, args.fast, args.theta,
-                   not getattr(args, "no_recover", False))
+                   not getattr(args, "no_recover", False), getattr(args, "composition", None))
 
 
 def _parse_method_spec(spec: str) -> tuple[str, int]:
@@ -255,6 +260,10 @@ def _add_method_args(p, default_order=1, backend=False):
                    help="an explicit case (σ, Σ) instead of the class representative, e.g. --case 2,3,1 1,3,2")
     p.add_argument("--order", type=int, default=default_order, choices=(1, 2, 4, 6),
                    help=f"composition order (1 = the bare method); default {default_order}")
+    p.add_argument("--composition", default=None, metavar="NAME",
+                   help="coefficients for --order 4: suzuki (default), blanes_moan (the method and "
+                        "its adjoint, 12 stages: the cheapest for a given accuracy), triple_jump; "
+                        "--order 6: kahan_li (default), yoshida, triple_jump")
     p.add_argument("--fast", action="store_true",
                    help="direct evaluation of the same map: closed-form shears (SE+SE) or the nested "
                         "θ-stages (SE+DL, DL+DL: no fold failures of the discrete Lagrangian)")
