@@ -101,7 +101,6 @@ class SymmetricPair(Method):
 
     def __init__(self, base: Method):
         self.base, self.adj = base, base.adjoint()
-        self.stages = ((self.base, 0.5), (self.adj, 0.5))  # (method, coefficient of h), in order
         self.case, self.field = base.case, base.field
         self.order, self.symmetric = max(2, base.order if base.order % 2 == 0 else base.order + 1), True
         self.name = f"{base.name}*∘{base.name}"
@@ -132,7 +131,6 @@ class Composition(Method):
     def __init__(self, base: Method, gammas, order: int, scheme_name: str):
         self.base = base
         self.gammas = tuple(float(g) for g in gammas)
-        self.stages = tuple((base, g) for g in self.gammas)  # (method, coefficient of h), in order
         self.case, self.field = base.case, base.field
         self.order, self.symmetric = int(order), True
         self.name = f"{scheme_name}{order}[{base.name}]"
