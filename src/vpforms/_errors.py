@@ -15,6 +15,7 @@ __all__ = [
     "ConvergenceError",
     "NonFiniteError",
     "NotDivergenceFreeError",
+    "InconsistentStepError",
     "RESULTS",
     "RECOVERY",
     "raise_for_status",
@@ -37,6 +38,12 @@ class NonFiniteError(VPFormsError, ValueError):
     """A point or a potential value was NaN or infinite."""
 
 
+class InconsistentStepError(VPFormsError):
+    """A step solved its equations but does not follow the field: |X − x − h a(x)| exceeded the
+    consistency guard (issue #23; e.g. a Newton root on another branch, or potentials that do not
+    reproduce the field at that point)."""
+
+
 class NotDivergenceFreeError(VPFormsError, ValueError):
     """A vector field given as divergence free is not."""
 
@@ -48,12 +55,14 @@ class RESULTS:
     twist_failure = 1
     not_converged = 2
     nonfinite = 3
+    inconsistent = 4
 
     messages = {
         successful: "converged",
         twist_failure: "twist condition failed (∂₁₂φ = 0 in volpot1 or ∂₂₃Φ = 0 in volpot2)",
         not_converged: "Newton iteration did not converge",
         nonfinite: "non-finite input or result (NaN/inf)",
+        inconsistent: "inconsistent step: |X − x − h a(x)| > κ·|h a(x)| (the step does not follow the field)",
     }
     #: short reason names for counts ("163 twist condition failed, 8 non-finite")
     short = {
@@ -61,11 +70,13 @@ class RESULTS:
         twist_failure: "twist condition failed",
         not_converged: "Newton not converged",
         nonfinite: "non-finite",
+        inconsistent: "inconsistent step",
     }
     errors = {
         twist_failure: TwistConditionError,
         not_converged: ConvergenceError,
         nonfinite: NonFiniteError,
+        inconsistent: InconsistentStepError,
     }
 
 
@@ -80,7 +91,7 @@ def raise_for_status(status, what: str = "generating map", max_indices: int = 5)
     flat = status.reshape(-1)
     parts = []
     first_code = None
-    for code in (RESULTS.nonfinite, RESULTS.twist_failure, RESULTS.not_converged):
+    for code in (RESULTS.nonfinite, RESULTS.twist_failure, RESULTS.not_converged, RESULTS.inconsistent):
         idx = np.flatnonzero(flat == code)
         if idx.size:
             first_code = first_code if first_code is not None else code

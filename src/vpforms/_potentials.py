@@ -26,6 +26,11 @@ from ._fieldops import (
 )
 from ._quadrature import line_integral
 
+def _potential_key(k: Any) -> str:
+    """A key of the ``potentials`` argument: a splitting ("se", "dl") or "A" (a vector potential)."""
+    return "A" if str(k).strip() in ("A", "vector") else _check_splitting(k)
+
+
 def _check_splitting(splitting: str) -> str:
     s = str(splitting).lower().replace("+", "").replace("-", "")
     s = {"sese": "se", "se": "se", "dl": "dl", "dldl": "dl", "sedl": "dl"}.get(s, s)
@@ -35,22 +40,43 @@ def _check_splitting(splitting: str) -> str:
 
 
 def _split_formula(key: str) -> str:
+    if key == "A":
+        return "∇×A"
     return "vf1(F1) + vf3(F3)" if key == "se" else "vf1(G1) + vf2(G2)"
 
 
 def _check_potentials_arg(potentials: Any) -> dict[str, tuple]:
     if not isinstance(potentials, Mapping):
-        raise ValueError('potentials must be a dict {"se": (F1, F3), "dl": (G1, G2)}')
+        raise ValueError('potentials must be a dict {"se": (F1, F3), "dl": (G1, G2), "A": (A1, A2, A3)}')
     out = {}
     for k, pair in potentials.items():
-        key = _check_splitting(k)
-        if isinstance(pair, (str, sp.Basic)) or len(pair) != 2:
-            raise ValueError(f"{k!r} potentials must be a pair; got {pair!r}")
+        key = _potential_key(k)
+        n = 3 if key == "A" else 2
+        if callable(pair) and key == "A":
+            pair = _split_vector_callable(pair)
+        if isinstance(pair, (str, sp.Basic)) or len(pair) != n:
+            what = "a triple (A1, A2, A3)" if n == 3 else "a pair"
+            raise ValueError(f"{k!r} potentials must be {what}; got {pair!r}")
         out[key] = tuple(pair)
     return out
 
 
+def _split_vector_callable(A):
+    """A(x) of shape (3,) → three scalar callables A_i(x1, x2, x3)."""
+    import jax.numpy as jnp
+
+    def comp(i):
+        return lambda x1, x2, x3: A(jnp.stack(jnp.broadcast_arrays(x1, x2, x3)).astype(float))[i]
+
+    return tuple(comp(i) for i in range(3))
+
+
 def _residual_exprs(exprs, symbols, key, pair):
+    if key == "A":  # ∇×A − a
+        A, (x1, x2, x3) = pair, symbols
+        curl = (sp.diff(A[2], x2) - sp.diff(A[1], x3), sp.diff(A[0], x3) - sp.diff(A[2], x1),
+                sp.diff(A[1], x1) - sp.diff(A[0], x2))
+        return tuple(c - a for c, a in zip(curl, exprs))
     P, Q = pair
     u = vf1_expr(P, symbols)
     v = vf3_expr(Q, symbols) if key == "se" else vf2_expr(Q, symbols)
@@ -144,3 +170,271 @@ def _quadrature_potentials(comps, splitting: str, origin, n: int):
 
     G1.__name__, G2.__name__ = "G1_quadrature", "G2_quadrature"
     return G1, G2
+
+
+# ---------------------------------------------------------------------------------------------
+# vector potentials and the gauge (issue #23: user potentials reach every case)
+# ---------------------------------------------------------------------------------------------
+#: the component of A that the gauge of a splitting sets to zero: SE ↔ A₂ = 0, DL ↔ A₃ = 0
+GAUGE_ZERO = {"se": 1, "dl": 2}
+
+
+def vector_potential(pair: Sequence[Any], splitting: str) -> tuple:
+    """The vector potential A of a potential pair: SE (F¹, F³) → (F¹, 0, F³), DL (G¹, G²) →
+    (G¹, G², 0) (∇×A = vf1(P) + vf3(Q) resp. vf1(P) + vf2(Q)). Entries are SymPy expressions or
+    JAX scalar callables, as given; the zero is ``0`` (an int)."""
+    P, Q = pair
+    return (P, 0, Q) if _check_splitting(splitting) == "se" else (P, Q, 0)
+
+
+def relabel_vector_potential(A: Sequence[Any], pi: Any, symbols: Sequence[sp.Symbol]) -> tuple:
+    """Ã of the relabelled field ã(x) = a(x·π⁻¹)·π (prop:trivperm): Ã(x) = sgn π · A(x·π⁻¹)·π.
+
+    (x ↦ x·π⁻¹ is the linear map M with ã = M a∘M⁻¹; curl(M A∘M⁻¹) = det M · M (curl A)∘M⁻¹ for a
+    permutation matrix, and det M = sgn π.) SymPy entries only."""
+    idx, inv = list(pi.index), list(pi.inverse().index)
+    sub = {symbols[j]: symbols[inv[j]] for j in range(3)}
+    s = int(pi.sign)
+    return tuple(s * sp.sympify(A[k]).xreplace(sub) for k in idx)
+
+
+def gauge_exprs(A: Sequence[Any], symbols: Sequence[sp.Symbol], splitting: str,
+                origin: Sequence[Any] = (0, 0, 0)) -> tuple[Any, Any] | None:
+    """The SE or DL pair of the vector potential A (SymPy): A − ∇χ with χ = ∫_{c_k}^{x_k} A_k dx_k
+    (k = 2 for SE, 3 for DL), which has the same curl and A_k − ∂_kχ = 0. χ = 0 when A_k ≡ 0
+    (the pair is read off A). None if SymPy leaves the integral unevaluated or piecewise."""
+    splitting = _check_splitting(splitting)
+    k = GAUGE_ZERO[splitting]
+    A = [sp.sympify(a) for a in A]
+    xk = symbols[k]
+    if A[k] == 0:
+        chi = sp.Integer(0)
+    else:
+        t = sp.Dummy("t", real=True)
+        try:
+            chi = sp.integrate(A[k].xreplace({xk: t}), (t, sp.nsimplify(origin[k]), xk))
+        except Exception:  # noqa: BLE001 - SymPy may raise on hard integrands
+            return None
+        if chi.has(sp.Integral) or chi.has(sp.Piecewise):
+            return None
+    B = [A[i] - sp.diff(chi, symbols[i]) for i in range(3)]
+    return (B[0], B[2]) if splitting == "se" else (B[0], B[1])
+
+
+def gauge_callables(A: Sequence[Any], splitting: str, origin: Sequence[float], n: int):
+    """:func:`gauge_exprs` for JAX scalar callables A_i(x1, x2, x3): χ by the differentiable
+    Gauss–Legendre rule (:func:`vpforms._quadrature.line_integral`), ∂_iχ by autodiff."""
+    import jax
+    import jax.numpy as jnp
+
+    splitting = _check_splitting(splitting)
+    k = GAUGE_ZERO[splitting]
+    keep = (0, 2) if splitting == "se" else (0, 1)
+    if not callable(A[k]):  # already in the gauge (A_k ≡ 0)
+        return tuple(A[i] for i in keep)
+
+    def chi(x1, x2, x3):
+        x = [x1, x2, x3]
+
+        def integrand(s):
+            y = list(x)
+            y[k] = s
+            return A[k](*y)
+
+        return line_integral(integrand, jnp.asarray(origin[k], float), x[k], n)
+
+    def comp(i):
+        dchi = jax.grad(chi, argnums=i)
+
+        def Pi(x1, x2, x3):
+            x1, x2, x3 = (jnp.asarray(v, float) for v in (x1, x2, x3))
+            return jnp.asarray(A[i](x1, x2, x3), float) - dchi(x1, x2, x3)
+
+        Pi.__name__ = f"{'FG'[splitting == 'dl']}{i + 1}_gauge"
+        return Pi
+
+    return tuple(comp(i) for i in keep)
+
+
+# ---------------------------------------------------------------------------------------------
+# checks: a pair may step on a domain only if it reproduces the field there (issue #23)
+# ---------------------------------------------------------------------------------------------
+#: relative reconstruction error max|∇×A − a| / max|a| above which a numerically built pair
+#: (quadrature, gauge by quadrature) is refused on a domain
+POTENTIAL_TOL = 1e-8
+#: points of the box a pair is checked on (seeded, uniform), besides the caller's points
+CHECK_POINTS = 512
+_NAMES = {"se": ("F1", "F3"), "dl": ("G1", "G2")}
+
+
+def _singular_sets(expr: sp.Expr, symbols: Sequence[sp.Symbol]) -> list[tuple[sp.Expr, str]]:
+    """(g, kind) with g = 0 where ``expr`` may be singular: denominators, logarithm arguments,
+    radicands, and cos/sin under tan/sec, cot/csc; polynomial g split into irreducible factors."""
+    syms = set(symbols)
+    raw: list[tuple[sp.Expr, str]] = []
+    for p in expr.atoms(sp.Pow):
+        b, e = p.as_base_exp()
+        if not (b.free_symbols & syms):
+            continue
+        if e.is_negative:
+            raw.append((b, "denominator"))
+        elif e.is_integer is not True:
+            raw.append((b, "radicand"))
+    raw += [(f.args[0], "logarithm argument") for f in expr.atoms(sp.log)]
+    raw += [(sp.cos(f.args[0]), "denominator") for f in expr.atoms(sp.tan, sp.sec)]
+    raw += [(sp.sin(f.args[0]), "denominator") for f in expr.atoms(sp.cot, sp.csc)]
+    out: list[tuple[sp.Expr, str]] = []
+    for g, kind in raw:
+        facs = [(g, 1)]
+        if g.is_polynomial(*symbols):
+            try:
+                facs = sp.factor_list(g, *symbols)[1] or facs
+            except Exception:  # noqa: BLE001 - factoring is only a refinement
+                pass
+        for f, _ in facs:
+            if f.free_symbols & syms and (f, kind) not in out:
+                out.append((f, kind))
+    return out
+
+
+def _numpy_fn(expr, symbols):
+    import numpy as np
+
+    f = sp.lambdify(tuple(symbols), expr, modules="numpy")
+
+    def g(pts):
+        with np.errstate(all="ignore"):
+            v = f(*np.asarray(pts, float).T)
+        return np.broadcast_to(np.asarray(v, dtype=complex if np.iscomplexobj(v) else float),
+                               (len(pts),))
+
+    return g
+
+
+def _zero_between(fn, p, q, iters: int = 80):
+    """A point of the segment [p, q] where the continuous fn changes sign (bisection)."""
+    import numpy as np
+
+    fp = fn(p[None])[0]
+    for _ in range(iters):
+        m = 0.5 * (p + q)
+        fm = fn(m[None])[0]
+        if np.sign(fm) == np.sign(fp):
+            p, fp = m, fm
+        else:
+            q = m
+    return 0.5 * (p + q), (q - p) / max(float(np.linalg.norm(q - p)), 1e-300)
+
+
+def _blows_up(expr, symbols, z, d) -> bool:
+    """Does |∇expr| grow without bound towards z along ±d (a true singularity, not a removable
+    0/0 such as sin(x₁x₂)/x₁)?"""
+    import numpy as np
+
+    grads = [_numpy_fn(sp.diff(expr, s), symbols) for s in symbols]
+
+    def size(eps):
+        pts = np.stack([z + eps * d, z - eps * d])
+        v = np.stack([g(pts) for g in grads], axis=1)
+        return np.inf if not np.all(np.isfinite(v)) else float(np.max(np.abs(v)))
+
+    far, near = size(1e-3), size(1e-8)
+    return not np.isfinite(near) or near > 1e3 * (far + 1.0)
+
+
+def singular_point(exprs: Sequence[sp.Expr], symbols: Sequence[sp.Symbol], pts) -> tuple | None:
+    """(index, g, kind, x) for the first expression of ``exprs`` that is singular on the domain
+    sampled by ``pts`` (N, 3): a non-finite or complex value at a point, or a set g = 0 of
+    :func:`_singular_sets` that separates two points (g changes sign between them) and on which the
+    expression truly blows up; None if no singularity is found."""
+    import numpy as np
+
+    pts = np.asarray(pts, float)
+    for i, e in enumerate(exprs):
+        e = sp.sympify(e)
+        if not (e.free_symbols & set(symbols)):
+            continue
+        v = _numpy_fn(e, symbols)(pts)
+        bad = ~np.isfinite(v) if not np.iscomplexobj(v) else ~np.isfinite(v) | (np.abs(v.imag) > 0)
+        if np.any(bad):
+            j = int(np.flatnonzero(bad)[0])
+            return i, None, "non-finite or complex value", pts[j]
+        for g, kind in _singular_sets(e, symbols):
+            gv = _numpy_fn(g, symbols)(pts)
+            if np.iscomplexobj(gv) or not np.all(np.isfinite(gv)):
+                continue
+            neg, pos = np.flatnonzero(gv < 0), np.flatnonzero(gv > 0)
+            if kind == "radicand" and neg.size:
+                return i, g, kind, pts[neg[0]]
+            if not (neg.size and pos.size):
+                continue
+            # the closest pair of points on either side of g = 0, bisected onto it
+            a, b = pts[neg[np.argmin(np.abs(gv[neg]))]], pts[pos[np.argmin(np.abs(gv[pos]))]]
+            z, d = _zero_between(_numpy_fn(g, symbols), a, b)
+            if kind != "denominator" or _blows_up(e, symbols, z, d):
+                return i, g, kind, z
+    return None
+
+
+def check_pair(field: Any, splitting: str, points: Any = None, what: str = "") -> None:
+    """Refuse (:class:`~vpforms.fields.PotentialError`) the ``splitting`` pair of ``field`` if it
+    does not reproduce the field on the domain: the box (:data:`CHECK_POINTS` seeded points) and
+    ``points`` (e.g. the initial conditions). Checked: symbolic potentials have no singular set
+    inside the domain (:func:`singular_point`); numerically built ones (quadrature, gauge by
+    quadrature) reconstruct the field to :data:`POTENTIAL_TOL` relative at every point. The
+    message names ``what`` (the case), the potential and a point. The box check is cached."""
+    import numpy as np
+
+    from ._fieldops import PotentialError, _fmt_pt, sample_box
+
+    splitting = _check_splitting(splitting)
+    cache = field.__dict__.setdefault("_checked_pairs", {})
+    if points is None and splitting in cache:
+        if cache[splitting] is not None:
+            raise PotentialError(f"{what}: {cache[splitting]}" if what else cache[splitting])
+        return
+    box_pts = sample_box(field.box, CHECK_POINTS, field.seed + 7)
+    pts = box_pts if points is None else np.concatenate(
+        [box_pts, np.asarray(points, float).reshape(-1, 3)[:4096]])
+    try:
+        reason = _pair_problem(field, splitting, pts)
+    except PotentialError as err:  # the pair cannot even be built
+        reason = str(err)
+    if points is None:
+        cache[splitting] = reason
+    if reason is not None:
+        raise PotentialError(f"{what}: {reason}" if what else reason)
+
+
+def _short(e: Any, n: int = 160) -> str:
+    s = str(e)
+    return s if len(s) <= n else s[: n - 1] + "…"
+
+
+def _pair_problem(field: Any, splitting: str, pts) -> str | None:
+    import numpy as np
+
+    from ._fieldops import _fmt_pt
+
+    fns, exprs, how = field._get(splitting)
+    names = _NAMES[splitting]
+    label = f"the {splitting.upper()} potentials of field {field.name!r} ({how})"
+    if exprs is not None:
+        hit = singular_point(exprs, field.symbols, pts)
+        if hit is not None:
+            i, g, kind, x = hit
+            where = f"is not finite/real at x = {_fmt_pt(x)}" if g is None else (
+                f"is singular where its {kind} {g} vanishes, inside the domain (e.g. x = {_fmt_pt(x)})")
+            return f"{label}: {names[i]} = {_short(exprs[i])} {where}"
+        if how in ("closed form", "user-supplied"):
+            return None  # verified symbolically: reproduces the field wherever it is defined
+    a = np.asarray(field(pts))
+    r = np.asarray(field.reconstruct(pts, splitting))
+    scale = max(float(np.max(np.abs(a[np.isfinite(a)]), initial=0.0)), np.finfo(float).tiny)
+    err = np.max(np.abs(r - a), axis=1) / scale
+    err = np.where(np.isfinite(err), err, np.inf)
+    j = int(np.argmax(err))
+    if err[j] > POTENTIAL_TOL:
+        return (f"{label} do not reproduce the field: |{_split_formula(splitting)} − a| / max|a| = "
+                f"{err[j]:.3g} > {POTENTIAL_TOL:g} at x = {_fmt_pt(pts[j])}")
+    return None

@@ -81,6 +81,11 @@ from ._fieldops import (  # noqa: F401  (re-exported: the public names and the h
     vf3_expr,
 )
 from ._potentials import (  # noqa: F401
+    GAUGE_ZERO,
+    check_pair,
+    gauge_callables,
+    gauge_exprs,
+    vector_potential,
     _check_potentials_arg,
     _check_splitting,
     _closed_form_potentials,
@@ -160,6 +165,10 @@ class Field:
         self.n_samples = int(n_samples)
         # potentials: splitting -> (callables, exprs or None, method)
         self._potentials: dict[str, tuple[tuple[Scalar, Scalar], tuple | None, str]] = {}
+        # vector potentials A (∇×A = a) of what the user supplied (issue #23): when present, every
+        # missing pair — and every pair of a relabelled field — is derived from them by the gauge
+        # of _potentials.gauge_exprs, never from the field itself
+        self._vector_potentials: list[tuple] = []
 
         comps = self.components
 
@@ -240,6 +249,8 @@ class Field:
         return self._potentials[splitting]
 
     def _build_potentials(self, splitting: str):
+        if self._vector_potentials:
+            return self._gauge_potentials(splitting)
         if self.exprs is not None and self.closed_form:
             got = _closed_form_potentials(self, splitting)
             if got is not None:
@@ -248,6 +259,29 @@ class Field:
                 return fns, exprs, "closed form"
         fns = _quadrature_potentials(self.components, splitting, self.origin, self.quadrature_n)
         return fns, None, f"quadrature(n={self.quadrature_n})"
+
+    def _gauge_potentials(self, splitting: str):
+        """The pair from the supplied vector potentials: one already in the gauge of the splitting
+        if there is one (read off), else the gauge integral of the first (closed form if SymPy
+        finds one, else by quadrature)."""
+        k = GAUGE_ZERO[splitting]
+        As = self._vector_potentials
+        A = next((A for A in As if _is_zero(A[k])), As[0])
+        how = "from the supplied potentials"
+        if self.exprs is not None and all(isinstance(c, (sp.Expr, int)) for c in A):
+            pair = gauge_exprs(A, self.symbols, splitting, self.origin)
+            if pair is not None:
+                return tuple(_lambdify_scalar(e, self.symbols) for e in pair), pair, how
+            A = tuple(_lambdify_scalar(sp.sympify(c), self.symbols) for c in A)
+        A = tuple(0 if _is_zero(c) else c for c in A)
+        fns = gauge_callables(A, splitting, self.origin, self.quadrature_n)
+        return fns, None, f"{how} (gauge by quadrature, n={self.quadrature_n})"
+
+    def check_potentials(self, splitting: str = "se", points: Any = None, what: str = "") -> None:
+        """Raise :class:`PotentialError` unless the ``splitting`` pair may step on the domain: the
+        box and ``points`` (see :func:`vpforms._potentials.check_pair`: no singular set of a
+        symbolic potential inside it; a numerically built pair reproduces a to 1e-8 relative)."""
+        check_pair(self, splitting, points, what)
 
     def potential_vector_field(self, splitting: str = "se") -> Callable[[jax.Array], jax.Array]:
         """x ↦ vf1(F1)(x) + vf3(F3)(x) (``"se"``) or vf1(G1)(x) + vf2(G2)(x) (``"dl"``), x (3,)."""
@@ -362,7 +396,7 @@ class Field:
         centre = [0.5 * (lo + hi) for lo, hi in box]
         for i, c in enumerate(comps):
             try:
-                c(*centre)
+                c(*(jnp.asarray(v) for v in centre))  # arrays: 1/0 is inf, not an exception
             except Exception as err:  # noqa: BLE001 - e.g. a SymPy function JAX does not know
                 raise ValueError(
                     f"component a{i + 1} = {exprs[i]} of field {name!r} cannot be evaluated with "
@@ -403,8 +437,12 @@ class Field:
                         f"the given {key.upper()} potentials do not reproduce field {name!r}: "
                         f"{_split_formula(key)} − a = {tuple(sp.simplify(r) for r in res)}"
                     )
+                if key == "A":
+                    field._vector_potentials.append(pair)
+                    continue
                 fns = tuple(_lambdify_scalar(p, symbols) for p in pair)
                 field._potentials[key] = (fns, pair, "user-supplied")
+                field._vector_potentials.append(vector_potential(pair, key))
         return field
 
     @classmethod
@@ -505,13 +543,20 @@ class Field:
             a_scale = max(float(np.max(np.abs(a_vals))), np.finfo(float).tiny)
             for key, pair in _check_potentials_arg(potentials).items():
                 if not all(callable(p) for p in pair):
-                    raise ValueError(f"{key} potentials must be two scalar callables")
-                field._potentials[key] = (tuple(pair), None, "user-supplied")
-                err, where = _numeric_max(
-                    lambda x: field.reconstruct(x, key) - field(x), np.asarray(pts)
-                )
-                if not err <= tol * a_scale:
-                    del field._potentials[key]
+                    raise ValueError(f"{key} potentials must be {len(pair)} scalar callables")
+                if key == "A":
+                    curl = jax.jit(lambda x: _batched(_curl(pair), x))
+                    err, where = _numeric_max(lambda x: curl(x) - field(x), np.asarray(pts))
+                else:
+                    field._potentials[key] = (tuple(pair), None, "user-supplied")
+                    err, where = _numeric_max(
+                        lambda x: field.reconstruct(x, key) - field(x), np.asarray(pts)
+                    )
+                if err <= tol * a_scale:
+                    field._vector_potentials.append(
+                        tuple(pair) if key == "A" else vector_potential(pair, key))
+                else:
+                    field._potentials.pop(key, None)
                     field._recon_fns.pop(key, None)
                     raise PotentialError(
                         f"the given {key.upper()} potentials do not reproduce field {name!r}: "
@@ -555,6 +600,21 @@ class Field:
     def __repr__(self) -> str:
         kind = "sympy" if self.exprs is not None else "callable"
         return f"Field(name={self.name!r}, {kind}, box={self.box})"
+
+
+def _curl(A: Sequence[Scalar]) -> Callable[[jax.Array], jax.Array]:
+    """x ↦ ∇×A(x) for three JAX scalar callables (autodiff), x of shape (3,)."""
+    grads = [jax.grad(lambda x, c=c: jnp.asarray(c(x[0], x[1], x[2]), float)) for c in A]
+
+    def curl(x):
+        d = [g(x) for g in grads]  # d[i][j] = ∂_j A_i
+        return jnp.stack([d[2][1] - d[1][2], d[0][2] - d[2][0], d[1][0] - d[0][1]])
+
+    return curl
+
+
+def _is_zero(c: Any) -> bool:
+    return not callable(c) and sp.sympify(c) == 0
 
 
 # ---------------------------------------------------------------------------------------------

@@ -34,6 +34,7 @@ import numpy as np
 
 from .._case import Case
 from .._errors import RESULTS, VPFormsError, raise_for_status
+from .._guard import KAPPA, guard_status
 from .._map import _as_points, _batched
 from .._perm import Perm, as_perm
 
@@ -86,6 +87,38 @@ class Method(ABC):
     def _backward(self, X: jax.Array, h: Any):
         """x = Ψ_h⁻¹(X) on one point: (x, status, iterations)."""
 
+    #: κ of the consistency guard (:mod:`vpforms._guard`); None switches it off
+    guard_kappa: float | None = KAPPA
+
+    def _accept(self, x, X, status, h):
+        """The step's status (batched (N, 3)) as every backend reports it: ``nonfinite`` where X is
+        not finite, ``inconsistent`` where the guard of :mod:`vpforms._guard` fails."""
+        bad = ~jnp.all(jnp.isfinite(X), axis=-1)
+        status = jnp.where((status == RESULTS.successful) & bad, RESULTS.nonfinite, status)
+        if self.field is None or self.guard_kappa is None:
+            return status.astype(jnp.int32)
+        euler = jax.vmap(lambda p: self.euler_guess(p, h))(x)
+        return guard_status(x, X, euler, status, self.guard_kappa)
+
+    #: the pair of potentials the recipe steps with ("se" or "dl"; None: it uses no potentials)
+    splitting: str | None = None
+
+    def _submethods(self) -> tuple:
+        """The methods this one is built from (compositions, adjoints, recovery)."""
+        return ()
+
+    def check_domain(self, points: Any = None, what: str | None = None) -> None:
+        """Raise :class:`~vpforms.fields.PotentialError` unless every pair of potentials the step
+        uses reproduces the field on the field's box and at ``points`` (N, 3) — no singular set of
+        a symbolic potential there, a numerical one within 1e-8 (issue #23). The message names the
+        case, the potential and a point. :func:`vpforms.scheme` checks the box at construction,
+        :func:`vpforms.integrate` the initial conditions at the start of a run."""
+        what = what or f"case {self.case} ({self.cls})"
+        if self.splitting is not None:
+            self.field.check_potentials(self.splitting, points, what=what)
+        for sub in self._submethods():
+            sub.check_domain(points)
+
     def generating_map(self, h: Any, x: Any = None):
         """The GeneratingMap of :attr:`case` whose solution is the step (None if not generated).
 
@@ -118,12 +151,16 @@ class Method(ABC):
         fn = getattr(self, "_jit_cache", None)
         if fn is None:
 
+            def guarded(x, h):
+                X, st, it, rec = self._batched_step(x, h)
+                return X, self._accept(x, X, st, h), it, rec
+
             def run(x, h):
                 if x.ndim == 1:
-                    out = self._batched_step(x[None], h)
+                    out = guarded(x[None], h)
                     return tuple(o[0] for o in out)
                 lead = x.shape[:-1]
-                out = self._batched_step(x.reshape(-1, 3), h)
+                out = guarded(x.reshape(-1, 3), h)
                 return tuple(o.reshape(*lead, *o.shape[1:]) for o in out)
 
             fn = jax.jit(run)
@@ -358,6 +395,11 @@ class Relabelled(Method):
         bare = self.base.without_recovery()
         return self if bare is self.base else Relabelled(bare, self.pi, self.field)
 
+    def check_domain(self, points: Any = None, what: str | None = None) -> None:
+        # the base runs on the relabelled field at y = x·π
+        y = None if points is None else np.asarray(points, float).reshape(-1, 3)[:, list(self.pi.index)]
+        self.base.check_domain(y, what or f"case {self.case} ({self.cls})")
+
     def _guess(self, x, h):
         g, n = self.base._guess(x[self._pi_idx], h)
         return g[self._pi_inv_idx], n
@@ -400,6 +442,12 @@ class Adjoint(Method):
 
     def adjoint(self) -> Method:
         return self.base
+
+    def _submethods(self) -> tuple:
+        return (self.base,)
+
+    def check_domain(self, points: Any = None, what: str | None = None) -> None:
+        self.base.check_domain(points, what or f"case {self.case} ({self.cls})")
 
     def _strip_recovery(self) -> Method:
         bare = self.base.without_recovery()

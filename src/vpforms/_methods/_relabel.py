@@ -5,6 +5,11 @@ permutation of those of a (vf_k(F) relabels to sgn π · vf_{π⁻¹(k)}(F∘π�
 when π moves the index pair), so ã is constructed as a Field of its own: linear → Field.linear
 (Ã_ij = A_{π(i)π(j)}), SymPy → Field.from_sympy (closed-form potentials), callable →
 Field.from_callable (quadrature potentials). Results are cached per (field, π).
+
+Where the user supplied potentials (a pair or a vector potential A), the relabelled field derives
+its pairs from them — Ã(x) = sgn π · A(x·π⁻¹)·π, then the gauge of its splitting
+(:mod:`vpforms._potentials`) — and never from its own components (issue #23): the field's own
+closed forms may be singular where the user's potentials are not.
 """
 
 from __future__ import annotations
@@ -15,6 +20,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._perm import Perm, as_perm
+from .._potentials import relabel_vector_potential
 from ..fields import Field
 
 __all__ = ["relabelled_field"]
@@ -46,16 +52,40 @@ def _build(field, pi: Perm) -> Field:
         s = field.symbols
         sub = {s[j]: s[inv[j]] for j in range(3)}  # y_j → (x·π⁻¹)_j = x_{π⁻¹(j)}
         exprs = tuple(field.exprs[k].xreplace(sub) for k in idx)
-        return Field.from_sympy(
+        out = Field.from_sympy(
             exprs, s, name=name, box=box, origin=origin,
             quadrature_n=field.quadrature_n, closed_form=field.closed_form,
         )
+        out._vector_potentials = [
+            relabel_vector_potential(A, pi, s) if not any(callable(c) for c in A)
+            else _relabel_callables(A, pi) for A in field._vector_potentials]
+        return out
     comps = field.components
 
     def a_tilde(x):
         y = x[jnp.asarray(inv)]
         return jnp.stack([jnp.asarray(comps[k](y[0], y[1], y[2]), float) for k in idx])
 
-    return Field.from_callable(
+    out = Field.from_callable(
         a_tilde, box=box, name=name, origin=origin, quadrature_n=field.quadrature_n
     )
+    out._vector_potentials = [_relabel_callables(A, pi) for A in field._vector_potentials]
+    return out
+
+
+def _relabel_callables(A, pi: Perm) -> tuple:
+    """:func:`~vpforms._potentials.relabel_vector_potential` for scalar callables (0 stays 0)."""
+    idx, inv, sgn = list(pi.index), list(pi.inverse().index), float(pi.sign)
+
+    def comp(k):
+        c = A[k]
+        if not callable(c):
+            return 0
+
+        def Ak(x1, x2, x3):
+            x = (x1, x2, x3)
+            return sgn * c(x[inv[0]], x[inv[1]], x[inv[2]])
+
+        return Ak
+
+    return tuple(comp(k) for k in idx)

@@ -99,6 +99,9 @@ ADJOINT_COMPOSITIONS: dict[tuple[int, str], tuple[tuple[float, ...], tuple[float
 class SymmetricPair(Method):
     """S_h = Ψ*_{h/2} ∘ Ψ_{h/2}: symmetric, order 2 (order ≥ 1 methods; HLW Thm II.3.2)."""
 
+    def _submethods(self) -> tuple:
+        return (self.base, self.adj)
+
     def __init__(self, base: Method):
         self.base, self.adj = base, base.adjoint()
         self.case, self.field = base.case, base.field
@@ -127,6 +130,9 @@ class SymmetricPair(Method):
 
 class Composition(Method):
     """S_{γ_s h} ∘ … ∘ S_{γ_1 h} for a symmetric method S (one compiled stage, ``lax.scan``)."""
+
+    def _submethods(self) -> tuple:
+        return (self.base,)
 
     def __init__(self, base: Method, gammas, order: int, scheme_name: str):
         self.base = base
@@ -179,6 +185,9 @@ class AdjointComposition(Method):
     """Ψ*_{α_s h}∘Ψ_{β_s h}∘…∘Ψ*_{α_1 h}∘Ψ_{β_1 h} (HLW V.3.2, eq. (3.4)): the method ``base`` and
     its adjoint in alternation, ``stages`` = ((Ψ, β₁), (Ψ*, α₁), …) in the order they act.
     Symmetric when the sequence of coefficients is a palindrome (α_i = β_{s+1−i})."""
+
+    def _submethods(self) -> tuple:
+        return (self.base, self.adj)
 
     def __init__(self, base: Method, betas, alphas, order: int, scheme_name: str):
         self.base, self.adj = base, base.adjoint()

@@ -30,6 +30,7 @@ class DLDL(DLPredictor, GeneratingMethod):
     gives the paper's signs (volume preserving, not consistent); ``fast=True`` evaluates the two
     θ-stages directly (see :class:`vpforms._methods.se_dl.DLPredictor`)."""
 
+    splitting = "dl"
     name = "DL+DL"
 
     def __init__(self, field: Any, *, theta: float = 0.0, printed: bool = False,

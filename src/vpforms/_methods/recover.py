@@ -49,12 +49,6 @@ __all__ = ["Recovering", "SubstepLadder"]
 _BUFFER = 32
 
 
-def _checked(X, st):
-    # a non-finite result reported as success is a failure (never NaN)
-    bad = ~jnp.all(jnp.isfinite(X), axis=-1)
-    return jnp.where((st == RESULTS.successful) & bad, RESULTS.nonfinite, st).astype(jnp.int32)
-
-
 class SubstepLadder(Method):
     """Ψ_{h/m}^m for m = 2, 4, …, 2^k: the first m whose sub-steps all succeed wins.
 
@@ -71,6 +65,9 @@ class SubstepLadder(Method):
 
     def adjoint(self) -> Method:
         return SubstepLadder(self.base.adjoint(), self.k)
+
+    def _submethods(self) -> tuple:
+        return (self.base,)
 
     def _strip_recovery(self) -> Method:
         bare = self.base.without_recovery()
@@ -89,8 +86,11 @@ class SubstepLadder(Method):
         z = jnp.zeros(x.shape[:-1], jnp.int32)
         return lax.fori_loop(0, m, body, (x, z, z))
 
-    def _ladder(self, fn, x, h, merge):
-        """Rungs j = 1…k while some point is still failing; (X, status, iterations)."""
+    def _ladder(self, fn, x, h, merge, hg=None):
+        """Rungs j = 1…k while some point is still failing; (X, status, iterations). A rung is
+        accepted only if it passes the guard of the step over ``hg`` (h; −h for the inverse)."""
+        hg = h if hg is None else hg
+        batched = x.ndim == 2
         z = jnp.zeros(x.shape[:-1], jnp.int32)
         init = (jnp.int32(0), x, z + RESULTS.not_converged, z)
 
@@ -100,7 +100,8 @@ class SubstepLadder(Method):
         def body(c):
             j, X, st, it = c
             Xj, sj, ij = self._rung(fn, x, h, j + 1, merge)
-            sj = _checked(Xj, sj)
+            sj = (self._accept(x, Xj, sj, hg) if batched
+                  else self._accept(x[None], Xj[None], sj[None], hg)[0])
             pending = st != RESULTS.successful
             X = jnp.where((pending & (sj == RESULTS.successful))[..., None], Xj, X)
             return j + 1, X, jnp.where(pending, sj, st), it + jnp.where(pending, ij, 0)
@@ -111,7 +112,7 @@ class SubstepLadder(Method):
         return self._ladder(self.base._forward, x, h, merge_status)
 
     def _backward(self, X, h):
-        return self._ladder(self.base._backward, X, h, merge_status)
+        return self._ladder(self.base._backward, X, h, merge_status, -h)
 
     def _batched_step(self, x, h):
         X, st, it = self._ladder(lambda p, h: self.base._batched_step(p, h)[:3], x, h,
@@ -123,9 +124,12 @@ class Recovering(Method):
     """``bare`` with recovery: ``alternatives`` is a tuple of (method, RECOVERY code) tried in
     order where the bare step fails (see the module docstring)."""
 
-    def __init__(self, bare: Method, alternatives, buffer: int = _BUFFER):
+    def __init__(self, bare: Method, alternatives, buffer: int = _BUFFER, refused=()):
         self.bare = bare
         self.alternatives = tuple(alternatives)
+        #: (case or class, reason) of the alternatives that could not be built for this field
+        #: (e.g. potentials singular inside the box): never tried
+        self.refused = tuple(refused)
         self.buffer = int(buffer)
         self.case, self.field = bare.case, bare.field
         self.order, self.symmetric = bare.order, bare.symmetric
@@ -140,9 +144,12 @@ class Recovering(Method):
     def _strip_recovery(self) -> Method:
         return self.bare.without_recovery()
 
+    def _submethods(self) -> tuple:
+        return (self.bare,)  # alternatives were checked on the box when built; only the bare step must run
+
     def adjoint(self) -> Method:
         out = Recovering(self.bare.adjoint(), [(a.adjoint(), c) for a, c in self.alternatives],
-                         self.buffer)
+                         self.buffer, self.refused)
         out.adjoint_of = self  # its spec is {"kind": "adjoint", "base": self.spec()}
         return out
 
@@ -150,15 +157,18 @@ class Recovering(Method):
         return self.bare.generating_map(h, x)
 
     # per-point (jacobian, inverse, use inside a user's vmap): the same choice, by a cond chain
-    def _chain(self, kernel, x, h):
+    def _chain(self, kernel, x, h, hg):
+        def ok(X, st):  # nonfinite and the guard of the step over hg (h, or −h for the inverse)
+            return self._accept(x[None], X[None], st[None], hg)[0]
+
         X, st, it = kernel(self.bare, x, h)
-        st = _checked(X, st)
+        st = ok(X, st)
         rec = jnp.int32(0)
         for alt, code in self.alternatives:
             def take(c, alt=alt, code=code):
                 X, st, it, rec = c
                 Xa, sa, ia = kernel(alt, x, h)
-                sa = _checked(Xa, sa)
+                sa = ok(Xa, sa)
                 ok = sa == RESULTS.successful
                 return (jnp.where(ok, Xa, X), jnp.where(ok, sa, st), it + ia,
                         jnp.where(ok, jnp.int32(code), rec))
@@ -167,10 +177,10 @@ class Recovering(Method):
         return X, st, it, rec
 
     def _forward(self, x, h):
-        return self._chain(lambda m, p, h: m._forward(p, h), x, h)[:3]
+        return self._chain(lambda m, p, h: m._forward(p, h), x, h, h)[:3]
 
     def _backward(self, X, h):
-        return self._chain(lambda m, p, h: m._backward(p, h), X, h)[:3]
+        return self._chain(lambda m, p, h: m._backward(p, h), X, h, -h)[:3]
 
     def _recover_buffer(self, xb, valid, h):
         """Alternatives in order on a buffer of K failing points (``valid`` marks real ones)."""
@@ -182,7 +192,7 @@ class Recovering(Method):
             def take(c, alt=alt, code=code):
                 X, st, it, rec = c
                 Xa, sa, ia, _ = alt._batched_step(xb, h)
-                sa = _checked(Xa, sa)
+                sa = self._accept(xb, Xa, sa, h)  # accepted only if it passes the guard
                 ok = (st != RESULTS.successful) & (sa == RESULTS.successful)
                 return (jnp.where(ok[:, None], Xa, X), jnp.where(ok, sa, st), it + ia,
                         jnp.where(ok, jnp.int32(code), rec))
@@ -193,7 +203,7 @@ class Recovering(Method):
 
     def _batched_step(self, x, h):
         X, st, it, _ = self.bare._batched_step(x, h)
-        st = _checked(X, st)
+        st = self._accept(x, X, st, h)
         rec = jnp.zeros(st.shape, jnp.int32)
         N = x.shape[0]
         K = min(self.buffer, N)
@@ -222,9 +232,11 @@ class Recovering(Method):
         return lax.cond(jnp.any(st != RESULTS.successful), recover, lambda c: c, (X, st, it, rec))
 
 
-def recovering(field: Any, case, bare: Method, build, substeps: int = 6, classes: bool = True):
+def recovering(field: Any, case, bare: Method, build, substeps: int = 6, classes: bool = True,
+               refused=()):
     """``Recovering(bare, …)`` with the alternatives of the module docstring; ``build(case_or_cls)``
-    makes a bare method (None where the recipe does not apply to the field)."""
+    makes a bare method (None where the recipe does not apply to the field, the reason then in
+    ``refused``)."""
     from .._case import CLASSES, cases
 
     alts = []
@@ -241,7 +253,7 @@ def recovering(field: Any, case, bare: Method, build, substeps: int = 6, classes
                     alts.append((m, RECOVERY.other_class))
     if int(substeps) > 0:
         alts.append((SubstepLadder(bare, substeps), RECOVERY.substeps))
-    return Recovering(bare, alts)
+    return Recovering(bare, alts, refused=refused)
 
 
 def recovering_scheme(scheme, field, case, options, substeps, classes):
@@ -251,12 +263,16 @@ def recovering_scheme(scheme, field, case, options, substeps, classes):
     bare = scheme(field, case, recover=False, **options)
     newton = {"newton": options["newton"]} if "newton" in options else {}
 
+    refused = []
+
     def build(c):
         try:
             if isinstance(c, str):  # another class: its representative, class options dropped
                 return scheme(field, c, recover=False, **newton)
             return scheme(field, c, recover=False, **options)
-        except (VPFormsError, ValueError):
+        except (VPFormsError, ValueError) as err:  # e.g. potentials singular inside the box
+            refused.append((c, str(err)))
             return None
 
-    return recovering(field, bare.case, bare, build, substeps=substeps, classes=classes)
+    return recovering(field, bare.case, bare, build, substeps=substeps, classes=classes,
+                      refused=refused)

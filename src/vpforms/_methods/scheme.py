@@ -18,6 +18,7 @@ from typing import Any
 from .._case import CLASSES, Case
 from .._perm import Perm
 from .._spec import records_spec
+from .._fieldops import PotentialError
 from ._base import Method, Relabelled, RecipeError
 from ._relabel import relabelled_field
 from ._representatives import REPRESENTATIVES
@@ -130,7 +131,10 @@ def scheme(field: Any, case: Case | str | tuple = "SE+SE", **options) -> Method:
     if pi * rep.Sigma != c.Sigma:
         # τ(c) = τ₀⁻¹: the adjoint of the method for the switched case (prop:switchperm)
         # bare like this call (recover was popped above): no recovery wrapper inside the adjoint
-        return scheme(field, c.switched(), recover=False, **options).adjoint()
+        try:
+            return scheme(field, c.switched(), recover=False, **options).adjoint()
+        except PotentialError as err:
+            raise PotentialError(f"case {c} is the adjoint of {err}") from None
     try:
         base = representative_method(relabelled_field(field, pi), c.cls, **dict(options))
     except RecipeError as err:
@@ -139,6 +143,6 @@ def scheme(field: Any, case: Case | str | tuple = "SE+SE", **options) -> Method:
         raise RecipeError(
             f"case {c} = relabelling by π = {pi.one_line()} of {rep}: {err}"
         ) from None
-    if pi == Perm((1, 2, 3)):
-        return base
-    return Relabelled(base, pi, field)
+    method = base if pi == Perm((1, 2, 3)) else Relabelled(base, pi, field)
+    method.check_domain()  # issue #23: refused here, with the reason, never at a step
+    return method

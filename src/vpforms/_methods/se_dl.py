@@ -126,6 +126,7 @@ class SEDL(DLPredictor, GeneratingMethod):
         evaluate the step as its two stages (:class:`DLPredictor`) instead of the engine.
     """
 
+    splitting = "dl"
     name = "SE+DL"
 
     def __init__(self, field: Any, *, theta: float = 0.0, printed: bool = False,

@@ -30,6 +30,7 @@ class SESE(GeneratingMethod):
     Order 1, not symmetric. ``newton`` overrides the GeneratingMap Newton controls.
     """
 
+    splitting = "se"
     name = "SE+SE"
 
     def __init__(self, field: Any, *, newton: dict | None = None):

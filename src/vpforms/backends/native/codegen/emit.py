@@ -29,6 +29,8 @@ import sympy as sp
 from sympy.printing.c import C99CodePrinter
 
 from ...._errors import RESULTS
+from ...._guard import FLOOR as GUARD_FLOOR
+from ...._methods._base import Method
 from ....symbolic import _symbols as G
 from .plan import plan
 from .potentials import CORR_S, DL_QPC, CorrectionStage, DLStage, MapStage, RK4Stage, ThetaStage
@@ -366,8 +368,34 @@ def _stage_body(stage: Any, newton: bool, fixed: bool) -> list[str]:
     return _map_body(stage, newton, fixed)
 
 
-def _step_fn(name: str, calls: list[str], fixed: bool) -> str:
-    body = "\n    ".join(calls)
+def _guard_c(field: Any, kappa: float | None, fixed: bool) -> tuple[list[str], list[str]]:
+    """The consistency guard of :mod:`vpforms._guard` in C: (lines at the step's start: the
+    predictor E = x + h a(x); lines at its end: the test on the result y). Empty without a guard."""
+    if kappa is None or field is None or getattr(field, "exprs", None) is None:
+        return [], []
+    xs = {s: _C[f"x{i + 1}"] for i, s in enumerate(field.symbols)}
+    pre = _assign([f"gd_a{i + 1}" for i in range(3)], list(field.exprs), xs, "gd")
+    pre += [f"double gd_e{i} = x{i} + h*gd_a{i};" for i in (1, 2, 3)]
+
+    def mx(a, b, c):  # max without fmax (which does not vectorise: NaN semantics)
+        return f"({a} > {b} ? ({a} > {c} ? {a} : {c}) : ({b} > {c} ? {b} : {c}))"
+
+    d = [f"gd_d{i}" for i in (1, 2, 3)]
+    post = [f"double gd_d{i} = fabs(y{i} - gd_e{i}), gd_s{i} = fabs(gd_e{i} - x{i}), "
+            f"gd_x{i} = fabs(x{i});" for i in (1, 2, 3)]
+    post += [
+        f"double gd_def = {mx(*d)};",
+        f"double gd_bound = {float(kappa)!r} * {mx('gd_s1', 'gd_s2', 'gd_s3')} + "
+        f"{float(GUARD_FLOOR)!r} * DBL_EPSILON * (1.0 + {mx('gd_x1', 'gd_x2', 'gd_x3')});",
+        "int gd_bad = !(gd_def <= gd_bound) & _VP_FINITE(y1, y2, y3);",
+    ]
+    post += (["ok = gd_bad ? 0.0 : ok;"] if fixed else
+             [f"code = (code == 0 && gd_bad) ? {RESULTS.inconsistent} : code;"])
+    return pre, post
+
+
+def _step_fn(name: str, calls: list[str], fixed: bool, guard=([], [])) -> str:
+    body = "\n    ".join([*guard[0], *calls, *guard[1]])
     init = "double ok = 1.0;" if fixed else "int code = 0, c;"
     return f"""static inline _VP_INLINE {"double" if fixed else "int"} {name}(double x1, double x2, double x3, double h,
                           double *restrict o1, double *restrict o2, double *restrict o3) {{
@@ -396,6 +424,9 @@ def kernel_source(method: Any, engine: str = "auto") -> str:
     stages = plan(method)
     if isinstance(stages, str):
         raise ValueError(stages)
+    # the guard of the JAX step (Method._accept), on every vpforms method; RK4 has none
+    field = getattr(method, "field", None)
+    kappa = getattr(method, "guard_kappa", None) if isinstance(method, Method) else None
     fns, steps = "", ""
     for kind, fixed in (("fast", True), ("exact", False)):
         names: dict[str, str] = {}  # body → function name (stages with the same map share one)
@@ -406,7 +437,7 @@ def kernel_source(method: Any, engine: str = "auto") -> str:
             call = f"{fn}(y1, y2, y3, {coef!r} * h, &y1, &y2, &y3);"
             calls.append(f"ok *= {call}" if fixed else f"c = {call} code = code ? code : c;")
         fns += "".join(_stage_fn(fn, body.split("\n"), fixed) for body, fn in names.items())
-        steps += _step_fn(f"vp_step_{kind}", calls, fixed)
+        steps += _step_fn(f"vp_step_{kind}", calls, fixed, _guard_c(field, kappa, fixed))
     nf = RESULTS.nonfinite
     return f"""
 #include <math.h>
