@@ -198,7 +198,9 @@ def test_user_callable_potentials_checked(abc_callable):
 
     f = Field.from_callable(a, box=ABC_BOX, potentials={"se": (F1, F3)})
     assert f.se_potentials == (F1, F3)
-    assert f.potential_methods == {"se": "user-supplied", "dl": "quadrature(n=32)"}
+    # issue #23: the missing pair is derived from the supplied one (its gauge), not from the field
+    assert f.potential_methods == {"se": "user-supplied",
+                                   "dl": "from the supplied potentials (gauge by quadrature, n=32)"}
     bad = lambda a_, b, c: F1(a_, b, c) + 0.1 * b * c  # noqa: E731
     with pytest.raises(PotentialError, match="do not reproduce"):
         Field.from_callable(a, box=ABC_BOX, potentials={"se": (bad, F3)})

@@ -256,3 +256,33 @@ def test_quadrature_potentials_give_exactly_volume_preserving_se_map():
     # consistent: (X − x)/h = a(x) + O(h)
     a = np.asarray(p.field(x))
     assert np.max(np.abs((X - np.asarray(x)) / h - a)) <= 2 * h * 1.8**2
+
+
+def test_tokamak_safety_factor_closed_form_matches_a_traced_line():
+    """q = 2B0 K(m)/(π R0 a) (problems.tokamak.safety_factor) against the field line traced by
+    SciPy: q = Δφ over one poloidal turn / 2π, the turn found as the next upward crossing of x3 = 0
+    on the outboard side."""
+    from scipy.integrate import solve_ivp
+
+    from vpforms.problems import tokamak
+
+    P = tokamak.make(eps=0)
+    f = P.field
+    for rho in (0.05, 0.3, 0.4):
+        x0 = np.array([1.0 + rho, 0.0, 0.0])
+
+        def up(t, y):
+            return y[2]
+
+        up.direction = 1.0
+        # leaves x3 = 0 upwards at t = 0 (B_pol·ẑ > 0 outboard): skip that start
+        sol = solve_ivp(lambda t, y: np.asarray(f(y)), (0, 200), x0, method="DOP853",
+                        rtol=1e-11, atol=1e-12, events=up, dense_output=True)
+        t_turn = [t for t in sol.t_events[0] if t > 1e-6][0]
+        y = sol.sol(t_turn)
+        phi = np.unwrap([np.arctan2(*sol.sol(t)[[1, 0]]) for t in np.linspace(0, t_turn, 2000)])
+        assert abs(np.hypot(y[0], y[1]) - (1 + rho)) < 1e-6  # back on the outboard midplane
+        q = (phi[-1] - phi[0]) / (2 * np.pi)
+        assert abs(q - float(tokamak.safety_factor(rho))) < 1e-6 * q
+    with pytest.raises(ValueError, match="0 < ρ"):
+        tokamak.safety_factor(0.5)

@@ -12,6 +12,7 @@ from ._errors import (
     RECOVERY,
     RESULTS,
     ConvergenceError,
+    InconsistentStepError,
     NonFiniteError,
     NotDivergenceFreeError,
     TwistConditionError,
@@ -19,7 +20,7 @@ from ._errors import (
     raise_for_status,
 )
 from ._map import GeneratingMap
-from .fields import Field
+from .fields import Field, PotentialError
 from ._newton import newton_scalar
 from ._perm import FLIP, Perm, as_perm
 from ._methods import (
@@ -49,6 +50,8 @@ __all__ = [
     "RECOVERY",
     "RESULTS",
     "ConvergenceError",
+    "InconsistentStepError",
+    "PotentialError",
     "NonFiniteError",
     "NotDivergenceFreeError",
     "TwistConditionError",

@@ -527,6 +527,9 @@ def integrate(
         :mod:`vpforms.backends`.  ``Solution.stats["backend"]`` says which ran.
     """
     pts, single, h, n_steps = _check_run(method, x0, h, n_steps, t0)
+    check = getattr(method, "check_domain", None)
+    if check is not None and pts.shape[0]:
+        check(pts)  # issue #23: potentials that do not hold at x0 are refused before any step
     from .backends import select_backend  # the one dispatch hook (issue 9)
 
     backend, backend_reason = select_backend(method, backend)

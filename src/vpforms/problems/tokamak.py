@@ -19,8 +19,11 @@ Cartesian x = (x₁, x₂, x₃), R² = x₁² + x₂², the major axis is the x
 * The perturbation is a helical (m, n) change of poloidal flux, δψ = ε R²χ ∝ ρ^m cos(mθ − nφ);
   as a curl it is divergence free identically.  It is resonant on the surface q = m/n and
   opens a chain of m magnetic islands there.  Defaults: R₀ = 1, B₀ = 1.8, (m, n) = (2, 1),
-  ε = 0.01.  Field-line tracing of the unperturbed field (scipy, during development) gives
-  q ≈ 1.80, 1.87, 2.02, 2.75 at ρ = 0.05, 0.2, 0.3, 0.4 in the outer midplane, and a Poincaré
+  ε = 0.01.  The safety factor of the unperturbed field has a closed form (:func:`safety_factor`):
+  with u = R²/2 the poloidal motion is Hamiltonian in (u, x₃) with H = ψ, its period is a
+  complete elliptic integral, and at R = a = R₀ + ρ in the outer midplane
+  q = 2B₀K(m)/(π R₀ a), m = 2(1 − R₀²/a²): q = 1.804, 1.873, 2.024, 2.737 at ρ = 0.05, 0.2, 0.3,
+  0.4 (tests/test_problems.py checks it against a traced field line), and a Poincaré
   section x₂ = 0 of the default field shows the two m = 2 islands with O-points near R ≈ 1.29
   and R ≈ 0.56 (x₃ = 0), each roughly 0.1–0.15 R₀ wide, between intact flux surfaces.
 
@@ -39,7 +42,7 @@ import sympy as sp
 from ..fields import SYMBOLS, Field
 from ._base import Problem, invariant_callables, real_param
 
-__all__ = ["make", "default", "DEFAULTS", "flux_function"]
+__all__ = ["make", "default", "DEFAULTS", "flux_function", "safety_factor"]
 
 DEFAULTS = {"R0": sp.Integer(1), "B0": sp.Rational(9, 5), "eps": sp.Rational(1, 100), "m": 2, "n": 1}
 SOURCE = (
@@ -53,6 +56,25 @@ def flux_function(R0, symbols=SYMBOLS):
     x1, x2, x3 = symbols
     R2 = x1**2 + x2**2
     return (R2 - R0**2) ** 2 / 8 + R2 * x3**2 / 2
+
+
+def safety_factor(rho, R0=1.0, B0=1.8):
+    """q of the unperturbed field (ε = 0) on the flux surface through R = R₀ + ρ, x₃ = 0.
+
+    In u = R²/2 the poloidal motion is u' = −∂ψ/∂x₃, x₃' = ∂ψ/∂u with ψ = (2u − R₀²)²/8 + u x₃², and
+    φ' = B₀/R₀ (B_tor/R is constant), so q = (B₀/R₀)·T/(2π) with T = ∮ du/(u x₃) the poloidal
+    period. On the surface, u x₃² = ψ − (2u − R₀²)²/8 = ½ u (u − u₁)(u₂ − u), u₁,₂ = R₀²/2 ∓ √(2ψ),
+    so T = 2√2 K(m)/√u₂ with m = (u₂ − u₁)/u₂ (Byrd–Friedman 233.00); at x₃ = 0, R = a:
+    u₂ = a²/2 and q = 2B₀K(m)/(π R₀ a), m = 2(1 − R₀²/a²). Valid for 0 < ρ < (√2 − 1)R₀ (m < 1,
+    inside the separatrix)."""
+    from scipy.special import ellipk
+
+    rho = np.asarray(rho, float)
+    a = R0 + rho
+    m = 2.0 * (1.0 - R0**2 / a**2)
+    if np.any((m <= 0) | (m >= 1)):
+        raise ValueError(f"safety_factor needs 0 < ρ < (√2 − 1)·R0 = {(np.sqrt(2) - 1) * R0:.4g}")
+    return 2.0 * B0 * ellipk(m) / (np.pi * R0 * a)
 
 
 def exprs(R0, B0, eps, m, n, symbols=SYMBOLS):
