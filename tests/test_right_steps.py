@@ -185,7 +185,7 @@ def test_every_case_steps_consistently_or_is_refused(solovev):
 # -- the guard --------------------------------------------------------------------------------------
 def test_recovery_never_takes_a_refused_case(solovev):
     m = vpforms.compose(vpforms.scheme(solovev, "DL+DL"), 2)
-    rec = m.base if hasattr(m, "base") else m
+    rec = m  # a recovering composition: every alternative is composed, refused ones never built
     refused = {str(c) for c, _ in rec.refused}
     assert refused  # the relabellings whose pairs are singular inside the box
     for alt, _ in rec.alternatives:
@@ -238,37 +238,40 @@ def test_guard_is_the_same_natively():
     np.testing.assert_array_equal(sj.failed_step, sn.failed_step)
 
 
-_HYP = settings(max_examples=12, deadline=None, derandomize=True,
+_HYP = settings(max_examples=10, deadline=None, derandomize=True,
                 suppress_health_check=[HealthCheck.too_slow])
 
 
 @st.composite
 def singular_fields(draw):
-    """curl of a random A with 1/R, logarithmic and rational terms (divergence free exactly)."""
-    c = [draw(st.integers(-3, 3)) for _ in range(6)]
-    A = (c[0] * x2 * x3 / R2 + c[1] * x3**2 / (1 + x1**2),
-         c[2] * x1 * x3 / R2 + c[3] * sp.log(R2) * x3,
-         c[4] * sp.log(R2) / 2 + c[5] * x1 * x2 / (2 + x3**2))
-    A = tuple(a + (k + 1) * x1 * x2 * x3 / 7 for k, a in enumerate(A))  # never all zero
+    """curl of a random A with 1/R², logarithmic and rational terms (divergence free exactly)."""
+    c = [draw(st.integers(-3, 3)) for _ in range(4)]
+    A = (c[0] * x2 * x3 / R2 + x1 * x2 * x3 / 7,
+         c[1] * x1 * x3 / R2 + c[2] * x3**2 / (1 + x1**2),
+         c[3] * sp.log(R2) / 2 + x1**2 * x2 / 5)
     curl = (sp.diff(A[2], x2) - sp.diff(A[1], x3), sp.diff(A[0], x3) - sp.diff(A[2], x1),
             sp.diff(A[1], x1) - sp.diff(A[0], x2))
     case = draw(st.sampled_from([c for c in vpforms.cases() if c.cls not in ("S1", "S2")]))
+    order = draw(st.sampled_from([1, 2]))
     seed = draw(st.integers(0, 2**16))
     h = draw(st.sampled_from([0.05, 0.2, 0.5]))
-    return curl, A, case, seed, h
+    return curl, A, case, order, seed, h
 
 
 @pytest.mark.slow
 @_HYP
 @given(singular_fields())
 def test_no_successful_step_violates_the_guard(data):
-    curl, A, case, seed, h = data
+    """Random fields with singular terms, random cases and points: the case is refused with its
+    name, or every step reported successful passes the guard (recomputed here in NumPy)."""
+    curl, A, case, order, seed, h = data
     f = Field.from_sympy(curl, SYMBOLS, potentials={"A": A}, box=BOX)
     try:
-        m = vpforms.scheme(f, case)  # recovering: alternatives go through the guard too
+        m = vpforms.scheme(f, case, recover=False)
     except PotentialError as err:
-        assert f"case {case}" in str(err)
+        assert f"case {case}" in str(err) or "adjoint" in str(err)
         return
+    m = vpforms.compose(m, order) if order > 1 else m
     x = np.random.default_rng(seed).uniform([b[0] for b in BOX], [b[1] for b in BOX], (16, 3))
     X, s = m.step_with_status(x, h)
     X, s = np.asarray(X), np.asarray(s)
@@ -279,17 +282,44 @@ def test_no_successful_step_violates_the_guard(data):
 
 
 @pytest.mark.slow
+def test_recovered_steps_agree_with_rk4(solovev):
+    """A recovery alternative replaces a failed step only if it agrees with RK4 to
+    KAPPA_ALT·|h a| (vpforms._guard): along a Solov'ev line with the engine-form DL+DL, composed
+    to order 2, every recovered step is within that bound of the RK4 step."""
+    from vpforms._guard import KAPPA_ALT, rk4_points
+
+    m = vpforms.compose(vpforms.scheme(solovev, "DL+DL"), 2)
+    x = np.array([[1.0857142857142856, 0.0, 0.0], [1.2285714285714286, 0.0, 0.0]])
+    h, seen = 0.05, 0
+    for _ in range(300):
+        X, s, how = m.step_with_recovery(x, h)
+        X, how = np.asarray(X), np.asarray(how)
+        assert np.all(np.asarray(s) == 0)
+        for i in np.flatnonzero(how):
+            seen += 1
+            ref, E = (np.asarray(v) for v in rk4_points(solovev.components, x[i:i + 1], h))
+            # a stage is recovered (h/2 each): the composed step is within twice the stage bound
+            assert np.max(np.abs(X[i] - ref[0])) <= 2 * KAPPA_ALT * np.max(np.abs(E[0] - x[i])) + 1e-12
+        x = X
+    assert seen >= 1  # the first step of the line at ρ = 0.086 is recovered (another class)
+
+
+@pytest.mark.slow
 def test_solovev_dl_dl_order2_keeps_the_flux(solovev):
+    """The issue's run (DL+DL, engine form with recovery, composed to order 2) on 8 field lines:
+    no failure, no jump, and the relative flux error O(h²): it falls ≥ 3× when h halves."""
     psi = sp.lambdify(SYMBOLS, PSI, "numpy")
     rho = np.linspace(0.05, 0.3, 8)
     x0 = np.stack([1 + rho, np.zeros_like(rho), np.zeros_like(rho)], axis=1)
     m = vpforms.compose(vpforms.scheme(solovev, "DL+DL"), 2)
-    h, n = 0.1, 10_000
-    sol = vpforms.integrate(m, x0, h, n, save_every=10, progress=False)
-    assert sol.n_failed == 0
-    xs = np.asarray(sol.xs)
-    drift = np.abs(psi(*xs.transpose(2, 0, 1)) - psi(*x0.T)[:, None])
-    assert drift.max() < 5 * h**2 * psi(*x0.T).max()  # O(h²), no growth
-    jumps = np.max(np.abs(np.diff(xs, axis=1)), axis=-1)  # 10 steps between saved states
-    speed = np.max(np.abs(np.asarray(solovev(xs.reshape(-1, 3)))))
-    assert jumps.max() < 10 * h * speed * 1.01  # no step moves farther than h·max|B|
+    T, worst = 100.0, []
+    for h in (0.1, 0.05):
+        sol = vpforms.integrate(m, x0, h, int(round(T / h)), save_every=10, progress=False)
+        assert sol.n_failed == 0
+        xs = np.asarray(sol.xs)
+        drift = np.abs(psi(*xs.transpose(2, 0, 1)) / psi(*x0.T)[:, None] - 1)
+        worst.append(drift.max())
+        jumps = np.max(np.abs(np.diff(xs, axis=1)), axis=-1)  # 10 steps between saved states
+        speed = np.max(np.abs(np.asarray(solovev(xs.reshape(-1, 3)))))
+        assert jumps.max() < 10 * h * speed * 1.01  # no step moves farther than h·max|B|
+    assert worst[0] < 0.5 and worst[0] / worst[1] > 3.0, worst

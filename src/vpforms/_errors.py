@@ -111,16 +111,19 @@ class RECOVERY:
     """Per-point codes saying how a failed step was recovered (``Method.step_with_recovery``).
 
     0: the bare step succeeded; otherwise the first alternative that succeeded, in the recovery
-    order of :func:`vpforms.scheme` (``recover=True``).
+    order of :func:`vpforms.scheme` (``recover=True``). ``same_map`` (DL classes in the engine
+    form): the same map evaluated by its nested θ-stages (``fast=True``), tried first.
     """
 
     none = 0
     other_case = 1
     other_class = 2
     substeps = 3
+    same_map = 4
 
     messages = {
         none: "bare step",
+        same_map: "the same DL map by its nested θ-stages",
         other_case: "another case of the same class",
         other_class: "another class",
         substeps: "2^k VP sub-steps of the same method",

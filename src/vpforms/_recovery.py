@@ -94,6 +94,8 @@ def _host_step(method: Any, x: np.ndarray, h: float, bare_failed: bool = False):
                 break
             Xa, sa = _padded(alt.step_with_status, x[pend], h)
             sa = _checked(Xa, sa)
+            if code != RECOVERY.substeps:  # another case or class must agree with RK4 (_guard)
+                sa = np.asarray(method.alternative_ok(x[pend], Xa, sa, h), np.int32)
             ok = sa == RESULTS.successful
             X[pend[ok]], how[pend[ok]] = Xa[ok], code
             st[pend] = sa

@@ -37,7 +37,8 @@ What applies and what does not
   root on the linear dense output, i.e. the crossing of the chord x_n → x_{n+1} — what
   ``vpforms.diagnostics.poincare_section(..., interpolation="linear")`` computes (error O(h²)),
   not the order-p crossing of its default ``interpolation="step"``.
-* **Failures.** A non-zero vpforms status (twist failure, Newton not converged, non-finite) maps
+* **Failures.** A non-zero vpforms status (twist failure, Newton not converged, non-finite, a step
+  that fails the consistency guard of :mod:`vpforms._guard`) maps
   to ``diffrax.RESULTS.nonlinear_divergence`` (non-finite to ``RESULTS.nonfinite``; a non-finite
   result reported as a success is non-finite, as in :func:`vpforms.integrate`): with
   ``throw=True`` ``diffeqsolve`` raises, with ``throw=False`` ``sol.result`` says so.  The failed

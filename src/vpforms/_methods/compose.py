@@ -20,6 +20,7 @@ from jax import lax
 
 from .._spec import records_spec
 from ._base import Method, merge_status
+from .recover import Recovering, SubstepLadder
 
 __all__ = ["compose", "ADJOINT_COMPOSITIONS", "AdjointComposition", "COMPOSITIONS", "Composition",
            "SymmetricPair", "triple_jump"]
@@ -249,6 +250,14 @@ def compose(method: Method, order: int = 2, scheme: str | None = None) -> Method
         raise TypeError(f"compose needs a vpforms method (vpforms.scheme(...)), got {type(method).__name__}")
     if order not in (2, 4, 6):
         raise ValueError(f"order must be 2, 4 or 6, not {order!r}")
+    if isinstance(method, Recovering):
+        # recovery of the COMPOSED step (issue #19, item 5): where it fails, the whole composition
+        # of an alternative is taken — the same order — instead of one switched stage, which
+        # would make the step an order-1 map (e.g. Ψ*_c∘Ψ_{c'} is not symmetric)
+        bare = compose(method.bare, order, scheme)
+        alts = [(SubstepLadder(bare, a.k) if isinstance(a, SubstepLadder) else compose(a, order, scheme), c)
+                for a, c in method.alternatives]
+        return Recovering(bare, alts, method.buffer, method.refused)
     base = method if (method.symmetric and method.order >= 2) else SymmetricPair(method)
     if order == 2:
         if scheme is not None:

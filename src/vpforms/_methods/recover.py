@@ -4,25 +4,27 @@ step with a fixed list of volume-preserving alternatives instead of freezing the
 Recovery order (first success wins; every alternative is itself a VP map, so the step taken is
 volume preserving):
 
+0. for the DL classes in the engine form: the SAME map evaluated by its nested θ-stages
+   (``fast=True``), well conditioned at the fold ∂²H/∂p² = 0 where the engine fails;
 1. the other cases of the same class (the 36-case order of :func:`vpforms.cases`);
 2. the representatives of the other classes (S1, S2, SE+SE, DL+DL, SE+DL order);
 3. 2, 4, …, 2^k sub-steps of size h/2^j of the bare method (k = ``recover_substeps``, default 6).
 
-Only then does the step report the bare failure (``integrate`` freezes the particle).
+Only then does the step report the bare failure (``integrate`` freezes the particle).  An
+alternative is accepted only if it passes the consistency guard (:mod:`vpforms._guard`) and, for
+1 and 2, agrees with the RK4 step to ``KAPPA_ALT``·|h a(x)|: it replaces a failed step, so it must be
+right.  Alternatives whose potentials are refused on the field's box (:meth:`Method.check_domain`)
+are never built; ``Recovering.refused`` lists them with the reason (issue #23).
 
-What recovery does to the order: every alternative is a consistent VP step (another case of the
-class, another class, or sub-steps of the same method: each at least order 1), so a recovered run
-still converges and stays exactly volume preserving; but a switched step has only the local error
-of its alternative.  In a composition the recovery is per stage, so a switched stage of an
-order-4 composition is an order-1 map (Ψ*_c ∘ Ψ_{c'} is no longer symmetric): local error O(h²)
-instead of O(h⁵).  With a fraction f of switched steps roughly independent of h, they add
-≈ f·(T/h)·O(h²) = O(f h) to the global error, so the observed order falls towards 1 once that term
-dominates.  Measured on tokamak (20 field lines, T = 4, h = 0.2 … 0.0125, benchmarks/
-results_recovery.md): DL+DL 1.19 (0.03–0.19 % switched), its order-2 composition 1.95 (0.2–0.5 %),
-its order-4 composition 1.56 (0–0.73 % switched; max error 3.0e-4 … 3.9e-5 for h = 0.1 … 0.0125,
-while over the lines none of whose steps switched it is 2.2e-5, 1.2e-6, 5.9e-8, 3.3e-9: order ≈ 4.2).
-The loss of order comes from the switched steps only.  Where order matters, use a smaller h or a
-class whose twist holds (:func:`vpforms.diagnostics.twist_map`), and read ``Solution.recovered``.
+What recovery does to the order: a composition of a recovering method recovers its COMPOSED step
+(:func:`vpforms.compose`): the alternatives are the same composition of each alternative, so a
+recovered step has the order of the composition (issue #19, item 5; before, each stage recovered
+on its own and a switched stage made the step an order-1 map: tokamak DL+DL composed to order 4
+showed observed order 1.56).  Switching between different methods of the same order still moves
+the trajectory between their modified invariants (measured on the Solov'ev tokamak: relative flux
+error not O(h²) when DL+DL order 2 recovered by other cases/classes); the same-map alternative 0
+does not — with it the engine-form run equals the stage-form run (flux error 0.088 → 0.023 as h
+halves, tests/test_right_steps.py).
 
 Cost: the decision is made once per BATCH. ``_batched_step`` runs the bare step on all points
 (vmap), then ``lax.cond(any(status != 0), recover, identity)`` with an unbatched predicate: when
@@ -41,6 +43,7 @@ import jax.numpy as jnp
 from jax import lax
 
 from .._errors import RECOVERY, RESULTS
+from .._guard import alternative_status
 from ._base import Method, merge_status
 
 __all__ = ["Recovering", "SubstepLadder"]
@@ -156,19 +159,29 @@ class Recovering(Method):
     def generating_map(self, h, x=None):
         return self.bare.generating_map(h, x)
 
+    def alternative_ok(self, x, X, status, h):
+        """:func:`vpforms._guard.alternative_status` at x, X (M, 3) (jitted once per method)."""
+        fn = self._cached_jit("alternative", lambda: lambda x, X, s, h: alternative_status(
+            self.field.components, x, X, h, s))
+        return fn(jnp.asarray(x), jnp.asarray(X), jnp.asarray(status, jnp.int32),
+                  jnp.asarray(h, float))
+
     # per-point (jacobian, inverse, use inside a user's vmap): the same choice, by a cond chain
     def _chain(self, kernel, x, h, hg):
-        def ok(X, st):  # nonfinite and the guard of the step over hg (h, or −h for the inverse)
+        def checked(X, st):  # nonfinite and the guard of the step over hg (h; −h for the inverse)
             return self._accept(x[None], X[None], st[None], hg)[0]
 
         X, st, it = kernel(self.bare, x, h)
-        st = ok(X, st)
+        st = checked(X, st)
         rec = jnp.int32(0)
         for alt, code in self.alternatives:
             def take(c, alt=alt, code=code):
                 X, st, it, rec = c
                 Xa, sa, ia = kernel(alt, x, h)
-                sa = ok(Xa, sa)
+                sa = checked(Xa, sa)
+                if code != RECOVERY.substeps:  # another case or class: must agree with RK4
+                    sa = alternative_status(self.field.components, x[None], Xa[None], hg,
+                                            sa[None])[0]
                 ok = sa == RESULTS.successful
                 return (jnp.where(ok, Xa, X), jnp.where(ok, sa, st), it + ia,
                         jnp.where(ok, jnp.int32(code), rec))
@@ -193,6 +206,8 @@ class Recovering(Method):
                 X, st, it, rec = c
                 Xa, sa, ia, _ = alt._batched_step(xb, h)
                 sa = self._accept(xb, Xa, sa, h)  # accepted only if it passes the guard
+                if code != RECOVERY.substeps:  # another case or class: must agree with RK4
+                    sa = alternative_status(self.field.components, xb, Xa, h, sa)
                 ok = (st != RESULTS.successful) & (sa == RESULTS.successful)
                 return (jnp.where(ok[:, None], Xa, X), jnp.where(ok, sa, st), it + ia,
                         jnp.where(ok, jnp.int32(code), rec))
@@ -233,13 +248,13 @@ class Recovering(Method):
 
 
 def recovering(field: Any, case, bare: Method, build, substeps: int = 6, classes: bool = True,
-               refused=()):
+               refused=(), first=()):
     """``Recovering(bare, …)`` with the alternatives of the module docstring; ``build(case_or_cls)``
     makes a bare method (None where the recipe does not apply to the field, the reason then in
     ``refused``)."""
     from .._case import CLASSES, cases
 
-    alts = []
+    alts = list(first)
     for c in cases():
         if c.cls == case.cls and c != case:
             m = build(c)
@@ -274,5 +289,17 @@ def recovering_scheme(scheme, field, case, options, substeps, classes):
             refused.append((c, str(err)))
             return None
 
+    first = []
+    if bare.cls in ("SE+DL", "DL+DL") and not options.get("fast") and not options.get("printed"):
+        # the engine form fails (or loses digits) at the fold of a DL stage where the nested
+        # θ-stages of the SAME map do not: that map first, so a recovered step changes nothing but
+        # the evaluation (switching methods would cost the composition's order and invariants)
+        same = None
+        try:
+            same = scheme(field, bare.case, recover=False, **{**options, "fast": True})
+        except (VPFormsError, ValueError) as err:
+            refused.append((bare.case, str(err)))
+        if same is not None:
+            first.append((same, RECOVERY.same_map))
     return recovering(field, bare.case, bare, build, substeps=substeps, classes=classes,
-                      refused=refused)
+                      refused=refused, first=first)
