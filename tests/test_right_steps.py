@@ -20,7 +20,7 @@ from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
 
 import vpforms
-from vpforms import RESULTS, Field
+from vpforms import RESULTS, Field, problems
 from vpforms._guard import FLOOR, KAPPA
 from vpforms.fields import SYMBOLS, PotentialError
 
@@ -228,7 +228,7 @@ def test_guard_marks_a_jump_and_recovery_rejects_it(solovev, monkeypatch):
 
 def test_guard_is_the_same_natively():
     pytest.importorskip("cffi")
-    P = vpforms.problems.get("lotka_volterra")
+    P = problems.get("lotka_volterra")
     m = vpforms.scheme(P.field, "S1", recover=False)
     x0 = P.initial_conditions(200, seed=1)
     sj = vpforms.integrate(m, x0, 0.4, 10, progress=False, backend="jax")
@@ -323,3 +323,23 @@ def test_solovev_dl_dl_order2_keeps_the_flux(solovev):
         speed = np.max(np.abs(np.asarray(solovev(xs.reshape(-1, 3)))))
         assert jumps.max() < 10 * h * speed * 1.01  # no step moves farther than h·max|B|
     assert worst[0] < 0.5 and worst[0] / worst[1] > 3.0, worst
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["tokamak", "stokes_sphere"])
+def test_library_problem_every_case_consistent(name):
+    """Every one of the 36 cases of a library problem (the ones without a tests/test_methods_cases_*
+    file) is built (none refused: smooth fields) and steps consistently: one-step error ratio ≈ 4
+    as h halves, status 0, at 4 initial conditions."""
+    P = problems.get(name)
+    x = P.initial_conditions(4, seed=3)
+    hs = (0.02, 0.01)
+    ref = {h: np.array([_flow(P.field, p, h) for p in x]) for h in hs}
+    for c in vpforms.cases():
+        m = vpforms.scheme(P.field, c, recover=False)
+        e = []
+        for h in hs:
+            X, s = m.step_with_status(x, h)
+            assert np.all(np.asarray(s) == 0), (c, h)
+            e.append(np.max(np.abs(np.asarray(X) - ref[h])))
+        assert 3.5 < e[0] / e[1] < 4.5, (c, e)

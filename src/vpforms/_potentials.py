@@ -13,11 +13,17 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+import jax
+import jax.numpy as jnp
+import numpy as np
 import sympy as sp
 
 from ._fieldops import (
+    PotentialError,
     _float_scale,
+    _fmt_pt,
     _symbolic_zero,
+    sample_box,
     _SPLITTINGS,
     SYMBOLS,
     vf1_expr,
@@ -63,8 +69,6 @@ def _check_potentials_arg(potentials: Any) -> dict[str, tuple]:
 
 def _split_vector_callable(A):
     """A(x) of shape (3,) → three scalar callables A_i(x1, x2, x3)."""
-    import jax.numpy as jnp
-
     def comp(i):
         return lambda x1, x2, x3: A(jnp.stack(jnp.broadcast_arrays(x1, x2, x3)).astype(float))[i]
 
@@ -224,9 +228,6 @@ def gauge_exprs(A: Sequence[Any], symbols: Sequence[sp.Symbol], splitting: str,
 def gauge_callables(A: Sequence[Any], splitting: str, origin: Sequence[float], n: int):
     """:func:`gauge_exprs` for JAX scalar callables A_i(x1, x2, x3): χ by the differentiable
     Gauss–Legendre rule (:func:`vpforms._quadrature.line_integral`), ∂_iχ by autodiff."""
-    import jax
-    import jax.numpy as jnp
-
     splitting = _check_splitting(splitting)
     k = GAUGE_ZERO[splitting]
     keep = (0, 2) if splitting == "se" else (0, 1)
@@ -298,8 +299,6 @@ def _singular_sets(expr: sp.Expr, symbols: Sequence[sp.Symbol]) -> list[tuple[sp
 
 
 def _numpy_fn(expr, symbols):
-    import numpy as np
-
     f = sp.lambdify(tuple(symbols), expr, modules="numpy")
 
     def g(pts):
@@ -313,8 +312,6 @@ def _numpy_fn(expr, symbols):
 
 def _zero_between(fn, p, q, iters: int = 80):
     """A point of the segment [p, q] where the continuous fn changes sign (bisection)."""
-    import numpy as np
-
     fp = fn(p[None])[0]
     for _ in range(iters):
         m = 0.5 * (p + q)
@@ -329,8 +326,6 @@ def _zero_between(fn, p, q, iters: int = 80):
 def _blows_up(expr, symbols, z, d) -> bool:
     """Does |∇expr| grow without bound towards z along ±d (a true singularity, not a removable
     0/0 such as sin(x₁x₂)/x₁)?"""
-    import numpy as np
-
     grads = [_numpy_fn(sp.diff(expr, s), symbols) for s in symbols]
 
     def size(eps):
@@ -347,8 +342,6 @@ def singular_point(exprs: Sequence[sp.Expr], symbols: Sequence[sp.Symbol], pts) 
     sampled by ``pts`` (N, 3): a non-finite or complex value at a point, or a set g = 0 of
     :func:`_singular_sets` that separates two points (g changes sign between them) and on which the
     expression truly blows up; None if no singularity is found."""
-    import numpy as np
-
     pts = np.asarray(pts, float)
     for i, e in enumerate(exprs):
         e = sp.sympify(e)
@@ -383,10 +376,6 @@ def check_pair(field: Any, splitting: str, points: Any = None, what: str = "") -
     inside the domain (:func:`singular_point`); numerically built ones (quadrature, gauge by
     quadrature) reconstruct the field to :data:`POTENTIAL_TOL` relative at every point. The
     message names ``what`` (the case), the potential and a point. The box check is cached."""
-    import numpy as np
-
-    from ._fieldops import PotentialError, _fmt_pt, sample_box
-
     splitting = _check_splitting(splitting)
     cache = field.__dict__.setdefault("_checked_pairs", {})
     if points is None and splitting in cache:
@@ -412,10 +401,6 @@ def _short(e: Any, n: int = 160) -> str:
 
 
 def _pair_problem(field: Any, splitting: str, pts) -> str | None:
-    import numpy as np
-
-    from ._fieldops import _fmt_pt
-
     fns, exprs, how = field._get(splitting)
     names = _NAMES[splitting]
     label = f"the {splitting.upper()} potentials of field {field.name!r} ({how})"

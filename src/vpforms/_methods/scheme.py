@@ -97,13 +97,19 @@ def scheme(field: Any, case: Case | str | tuple = "SE+SE", **options) -> Method:
     recipe (:func:`representative_method`, whose options apply) relabelled (prop:trivperm) and,
     for the SE+DL 3-cycle τ₀⁻¹, adjoined (prop:switchperm).
 
-    ``recover=True`` (default): where the step fails, other cases of the class, then other classes,
-    then 2…2^``recover_substeps`` sub-steps are tried (``vpforms._methods.recover``);
+    ``recover=True`` (default): where the step fails, the same DL map by its nested θ-stages (DL
+    classes in the engine form), other cases of the class, then other classes, then
+    2…2^``recover_substeps`` sub-steps are tried (``vpforms._methods.recover``); an alternative
+    is accepted only if it passes the consistency guard and agrees with RK4 (``vpforms._guard``).
     ``recover=False`` is the bare method. ``recover_classes=False`` skips the other classes.
-    A recovered step is still an exactly VP, consistent step (order ≥ 1), but only as accurate as
-    the alternative taken: where steps switch, the observed order falls towards 1 (measured on
-    tokamak: DL+DL composed to order 4 shows slope 1.56 with 0.25–0.73 % switched steps, ≈ 4 on
-    the lines that never switched; see ``vpforms._methods.recover``). ``Solution.recovered`` counts the switched steps per particle.
+    A recovered step is an exactly VP, consistent step of the same order (a composition of a
+    recovering method recovers its composed step), but only as accurate as the alternative taken.
+    ``Solution.recovered`` counts the switched steps per particle; ``method.refused`` lists the
+    alternatives whose potentials were refused on the field's box.
+
+    The case's own potentials are checked on the field's box here (``Method.check_domain``): a
+    pair that is singular inside it, or a numerical pair that does not reproduce the field, is a
+    :class:`~vpforms.PotentialError` naming the case, the potential and a point (issue #23).
     """
     if not (callable(field) and hasattr(type(field), "se_potentials") and hasattr(type(field), "dl_potentials")):
         raise TypeError(f"scheme needs a vpforms.Field (e.g. vpforms.problems.get('abc').field), "
