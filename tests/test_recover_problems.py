@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 import vpforms
+from vpforms import RECOVERY, RESULTS
 from vpforms import problems
 
 
@@ -30,8 +31,9 @@ def test_tokamak_dldl_order4_loses_no_field_line(h):
 def test_stokes_s1_failures_are_diverged_orbits_that_no_step_can_recover():
     """Issue #12 asked for 0 frozen with S1 on Stokes at h = 0.1.  Measured instead: the S1
     correction map is unstable on this field at that step; the orbits that fail have grown by
-    many orders of magnitude (steps still succeeding) before a step overflows, so no alternative
-    can take that step and recovery (correctly) changes nothing.  This test pins that diagnosis."""
+    orders of magnitude (steps still succeeding) before a step fails the consistency guard (or
+    overflows), so no alternative can take that step and recovery (correctly) changes nothing.
+    This test pins that diagnosis."""
     p = problems.get("stokes_sphere")
     x0 = p.initial_conditions(300, seed=0)
     b = _frozen(vpforms.scheme(p.field, "S1", recover=False), x0, 0.1, 200)
@@ -40,7 +42,11 @@ def test_stokes_s1_failures_are_diverged_orbits_that_no_step_can_recover():
     assert np.array_equal(r.status, b.status) and r.recovered.sum() == 0
     frozen = r.xs[r.status != 0, -1]
     assert np.all(np.isfinite(frozen))  # frozen, never NaN
-    assert np.min(np.max(np.abs(frozen), axis=1)) > 1e6 * np.max(np.abs(x0))  # diverged before failing
+    # diverged before failing; since issue #23 the consistency guard stops a diverging orbit when
+    # its S1 step stops following the field (|X − x − h a| > 8|h a|), at ≥ 10³ × |x0| instead of
+    # at the overflow near 1e134
+    assert np.min(np.max(np.abs(frozen), axis=1)) > 1e3 * np.max(np.abs(x0))
+    assert set(np.unique(r.status[r.status != 0])) <= {RESULTS.inconsistent, RESULTS.nonfinite}
 
 
 def _fold_points_and_fast(theta, n=20_000):
@@ -100,7 +106,11 @@ def test_abc_dldl_long_run_keeps_every_orbit_and_volume(theta):
     # a step taken differs from the DL+DL map only where recovery switched it (the generic engine's
     # own evaluation error near the fold stays far below 1e-7)
     switched = np.max(np.abs(np.asarray(X) - r.xs[:, 1:].reshape(-1, 3)), axis=1) > 1e-7
-    assert 0 < switched.sum() <= r.recovered.sum()
+    assert switched.sum() <= r.recovered.sum()
+    # since issue #23 a failed engine step is retried first with the same map by its nested
+    # θ-stages: every recovered step is that map, none leaves it
+    assert set(r.stats["recovered_how"]) == {RECOVERY.messages[RECOVERY.same_map]}
+    assert switched.sum() == 0
     _, st_bare = rec.without_recovery().step_with_status(pts, h)
     failed_bare = np.asarray(st_bare) != 0
     assert failed_bare.sum() == r.recovered.sum()  # the re-evaluation finds exactly the recovered steps
