@@ -387,10 +387,12 @@ def _guard_c(field: Any, kappa: float | None, fixed: bool) -> tuple[list[str], l
         f"double gd_def = {mx(*d)};",
         f"double gd_bound = {float(kappa)!r} * {mx('gd_s1', 'gd_s2', 'gd_s3')} + "
         f"{float(GUARD_FLOOR)!r} * DBL_EPSILON * (1.0 + {mx('gd_x1', 'gd_x2', 'gd_x3')});",
-        "int gd_bad = !(gd_def <= gd_bound) & _VP_FINITE(y1, y2, y3);",
     ]
-    post += (["ok = gd_bad ? 0.0 : ok;"] if fixed else
-             [f"code = (code == 0 && gd_bad) ? {RESULTS.inconsistent} : code;"])
+    # the vectorised pass keeps its state in doubles (gcc if-converts, see _newton_fixed_c): a lane
+    # that misses the bound (or is not finite) is redone by the exact pass, which gives the status
+    post += (["ok = ok * ((gd_def <= gd_bound) ? 1.0 : 0.0);"] if fixed else
+             ["int gd_bad = !(gd_def <= gd_bound) & _VP_FINITE(y1, y2, y3);",
+              f"code = (code == 0 && gd_bad) ? {RESULTS.inconsistent} : code;"])
     return pre, post
 
 
