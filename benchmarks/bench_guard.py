@@ -30,8 +30,8 @@ def _method(guard: bool):
     return m
 
 
-def main() -> None:
-    args = parser(__doc__, "results_guard.md", rounds=5).parse_args()
+def main(argv=None) -> int:
+    args = parser(__doc__, "results_guard.md", rounds=5).parse_args(argv)
     t_start = time.perf_counter()
     P = get("abc")
     rows = []
@@ -52,7 +52,9 @@ def main() -> None:
                 sol = vpforms.integrate(m, x0, 0.1, steps, progress=False, backend=backend)
                 np.asarray(sol.x_final)
                 best[k] = min(best[k], time.perf_counter() - t)
-        same = np.array_equal(np.asarray(out["guard"].x_final), np.asarray(out["no guard"].x_final))
+        # the guard changes no step where nothing fails; the compiled code differs, so the results
+        # may differ by rounding (XLA fusion, gcc's contraction): the largest difference
+        same = float(np.max(np.abs(np.asarray(out["guard"].x_final) - np.asarray(out["no guard"].x_final))))
         ns = {k: 1e9 * v / (N * steps) for k, v in best.items()}
         rows.append((backend, N, steps, ns["guard"], ns["no guard"], ns["guard"] / ns["no guard"],
                      same, int(out["guard"].n_failed)))
@@ -62,15 +64,16 @@ def main() -> None:
         "ABC SE+SE, h = 0.1, nothing fails; ns per particle-step, best of interleaved rounds "
         "(`vpforms.integrate`, one process).",
         "",
-        "| backend | N | steps | with guard (ns) | without (ns) | ratio | same states | failed |",
+        "| backend | N | steps | with guard (ns) | without (ns) | ratio | max abs Δx (rounding) | failed |",
         "|---|---|---|---|---|---|---|---|",
     ]
-    lines += [f"| {b} | {N:,} | {s} | {g:.2f} | {n:.2f} | {r:.3f} | {same} | {f} |"
+    lines += [f"| {b} | {N:,} | {s} | {g:.2f} | {n:.2f} | {r:.3f} | {same:.1e} | {f} |"
               for b, N, s, g, n, r, same, f in rows]
     lines += ["", machine("bench_guard.py", time.perf_counter() - t_start, args.smoke), ""]
     open(args.out, "w").write("\n".join(lines))
     print("\n".join(lines))
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(main())

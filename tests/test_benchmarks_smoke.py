@@ -73,3 +73,11 @@ def test_bench_recovery_smoke(tmp_path):
     lines = text.splitlines()
     assert sum(line.startswith("| 0.1 |") for line in lines) == 3  # tokamak h = 0.1: bare, recovering, fast
     assert sum(line.startswith("| DL+DL") for line in lines) == 12  # 3 methods × 4 rows
+
+
+def test_bench_guard_smoke(tmp_path):
+    text = _smoke("bench_guard", tmp_path)
+    rows = [r.split("|") for r in text.splitlines() if r.startswith("| jax") or r.startswith("| native")]
+    assert rows and rows[0][1].strip() == "jax"
+    for r in rows:  # where nothing fails the guard changes no step: rounding-level differences only
+        assert float(r[7]) < 1e-12 and int(r[8]) == 0
