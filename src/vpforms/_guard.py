@@ -55,18 +55,24 @@ def guard_status(x: Any, X: Any, euler: Any, status: Any, kappa: float | None = 
 KAPPA_ALT = 0.5
 
 
+def rk4_step(a, x, h):
+    """One classical RK4 step of x' = a(x) (the one copy of the formula: :class:`vpforms.RK4`
+    uses it too); ``a`` maps (..., 3) to (..., 3)."""
+    k1 = a(x)
+    k2 = a(x + 0.5 * h * k1)
+    k3 = a(x + 0.5 * h * k2)
+    k4 = a(x + h * k3)
+    return x + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+
+
 def rk4_points(components, x, h):
-    """The classical RK4 step of the field (scalar callables ``components``) from x (N, 3)."""
+    """(RK4 step, Euler point x + h a(x)) of the field (scalar callables ``components``) from x (N, 3)."""
 
     def a(p):
         return jnp.stack([jnp.asarray(c(p[..., 0], p[..., 1], p[..., 2]), float) for c in components],
                          axis=-1)
 
-    k1 = a(x)
-    k2 = a(x + 0.5 * h * k1)
-    k3 = a(x + 0.5 * h * k2)
-    k4 = a(x + h * k3)
-    return x + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4), x + h * k1
+    return rk4_step(a, x, h), x + h * a(x)
 
 
 def alternative_status(components, x, X, h, status, kappa: float = KAPPA_ALT):

@@ -36,6 +36,7 @@ from jax import lax
 
 from . import _config  # noqa: F401  (float64)
 from ._recovery import bare_method, count_how, recover_points
+from ._guard import rk4_step
 from ._errors import RESULTS, raise_for_status
 
 __all__ = ["integrate", "Solution", "RK4", "describe", "auto_chunk_size"]
@@ -90,11 +91,7 @@ class RK4:
         x = jnp.asarray(x, dtype=jnp.result_type(float))
         if x.ndim == 2:
             return jax.vmap(lambda p: self.step(p, h))(x)
-        k1 = a(x)
-        k2 = a(x + 0.5 * h * k1)
-        k3 = a(x + 0.5 * h * k2)
-        k4 = a(x + h * k3)
-        return x + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+        return rk4_step(a, x, h)
 
     def step_with_status(self, x: Any, h: Any):
         X = self.step(x, h)
