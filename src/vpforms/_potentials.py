@@ -31,6 +31,7 @@ from ._fieldops import (
     vf3_expr,
 )
 from ._quadrature import line_integral
+from ._vecpot import GAUGE_ZERO, CallablePotential
 
 def _potential_key(k: Any) -> str:
     """A key of the ``potentials`` argument: a splitting ("se", "dl") or "A" (a vector potential)."""
@@ -180,7 +181,6 @@ def _quadrature_potentials(comps, splitting: str, origin, n: int):
 # vector potentials and the gauge (issue #23: user potentials reach every case)
 # ---------------------------------------------------------------------------------------------
 #: the component of A that the gauge of a splitting sets to zero: SE ↔ A₂ = 0, DL ↔ A₃ = 0
-GAUGE_ZERO = {"se": 1, "dl": 2}
 
 
 def vector_potential(pair: Sequence[Any], splitting: str) -> tuple:
@@ -226,35 +226,10 @@ def gauge_exprs(A: Sequence[Any], symbols: Sequence[sp.Symbol], splitting: str,
 
 
 def gauge_callables(A: Sequence[Any], splitting: str, origin: Sequence[float], n: int):
-    """:func:`gauge_exprs` for JAX scalar callables A_i(x1, x2, x3): χ by the differentiable
-    Gauss–Legendre rule (:func:`vpforms._quadrature.line_integral`), ∂_iχ by autodiff."""
+    """:func:`gauge_exprs` for JAX scalar callables A_i(x1, x2, x3) (or 0): χ by the differentiable
+    Gauss–Legendre rule, ∂_iχ by autodiff (:meth:`vpforms._vecpot.VectorPotential.gauge`)."""
     splitting = _check_splitting(splitting)
-    k = GAUGE_ZERO[splitting]
-    keep = (0, 2) if splitting == "se" else (0, 1)
-    if not callable(A[k]):  # already in the gauge (A_k ≡ 0)
-        return tuple(A[i] for i in keep)
-
-    def chi(x1, x2, x3):
-        x = [x1, x2, x3]
-
-        def integrand(s):
-            y = list(x)
-            y[k] = s
-            return A[k](*y)
-
-        return line_integral(integrand, jnp.asarray(origin[k], float), x[k], n)
-
-    def comp(i):
-        dchi = jax.grad(chi, argnums=i)
-
-        def Pi(x1, x2, x3):
-            x1, x2, x3 = (jnp.asarray(v, float) for v in (x1, x2, x3))
-            return jnp.asarray(A[i](x1, x2, x3), float) - dchi(x1, x2, x3)
-
-        Pi.__name__ = f"{'FG'[splitting == 'dl']}{i + 1}_gauge"
-        return Pi
-
-    return tuple(comp(i) for i in keep)
+    return CallablePotential(A).gauge(splitting, origin, n)
 
 
 # ---------------------------------------------------------------------------------------------

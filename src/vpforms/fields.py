@@ -36,8 +36,9 @@ import sympy as sp
 from sympy.core.function import AppliedUndef
 
 from . import _config  # noqa: F401  (float64)
-from ._field_input import alias_coordinates, constant_jacobian
+from ._field_input import _detect_linear, _numeric_jac_scale, _param_subs, alias_coordinates
 from ._quadrature import DEFAULT_N
+from ._vecpot import CallablePotential, VectorPotential, curl_of
 
 __all__ = [
     "Field",
@@ -169,6 +170,8 @@ class Field:
         # missing pair — and every pair of a relabelled field — is derived from them by the gauge
         # of _potentials.gauge_exprs, never from the field itself
         self._vector_potentials: list[tuple] = []
+        # per axis the period of the field (φ of a toroidal field), or None
+        self.periods: tuple = (None, None, None)
 
         comps = self.components
 
@@ -266,6 +269,13 @@ class Field:
         finds one, else by quadrature)."""
         k = GAUGE_ZERO[splitting]
         As = self._vector_potentials
+        objs = [A for A in As if isinstance(A, VectorPotential)]
+        if objs:  # an object that integrates itself (exactly, for splines)
+            A = next((A for A in objs if A.exact_gauge), objs[0])
+            how = f"from the {A.description}"
+            if not A.exact_gauge:
+                how += f" (gauge by quadrature, n={self.quadrature_n})"
+            return A.gauge(splitting, self.origin, self.quadrature_n), None, how
         A = next((A for A in As if _is_zero(A[k])), As[0])
         how = "from the supplied potentials"
         if self.exprs is not None and all(isinstance(c, (sp.Expr, int)) for c in A):
@@ -545,7 +555,7 @@ class Field:
                 if not all(callable(p) for p in pair):
                     raise ValueError(f"{key} potentials must be {len(pair)} scalar callables")
                 if key == "A":
-                    curl = jax.jit(lambda x: _batched(_curl(pair), x))
+                    curl = jax.jit(lambda x: _batched(curl_of(pair), x))
                     err, where = _numeric_max(lambda x: curl(x) - field(x), np.asarray(pts))
                 else:
                     field._potentials[key] = (tuple(pair), None, "user-supplied")
@@ -563,6 +573,42 @@ class Field:
                         f"max |{_split_formula(key)} − a| = {err:.6g} at x = {_fmt_pt(where)} "
                         f"(max |a| = {a_scale:.3g})"
                     )
+        return field
+
+    @classmethod
+    def from_vector_potential(
+        cls,
+        A: Any,
+        box: Any = _DEFAULT_BOX,
+        name: str = "field",
+        *,
+        periods: Sequence[float | None] | None = None,
+        tol: float = 1e-10,
+        n_samples: int = 256,
+        seed: int = 0,
+        origin: Sequence[float] = (0.0, 0.0, 0.0),
+        quadrature_n: int = DEFAULT_N,
+    ) -> "Field":
+        """The field a = ∇×A of a vector potential: a :class:`~vpforms._vecpot.VectorPotential`
+        (coils, a spline of A on a grid, a toroidal-coordinate potential), three JAX scalar callables
+        or a callable A(x).
+
+        a is divergence free as a function (the divergence of a curl; checked by autodiff at sample
+        points all the same). Every pair of every case — including the relabelled ones — is built
+        from A by its own antiderivative (exact for splines, periodic-aware Gauss–Legendre
+        otherwise), never from a: see :mod:`vpforms._vecpot`. ``periods`` (per axis, e.g.
+        ``(None, 2π/nfp, None)`` for (u, φ, Z)) defaults to those of ``A``.
+        """
+        if not isinstance(A, VectorPotential):
+            comps = _check_potentials_arg({"A": A})["A"]
+            A = CallablePotential(comps, periods if periods is not None else (None,) * 3)
+        field = cls.from_callable(
+            curl_of(A.components()), box=box, name=name, tol=tol, n_samples=n_samples, seed=seed,
+            origin=origin, quadrature_n=quadrature_n,
+        )
+        field._vector_potentials.append(A)
+        field.periods = tuple(A.periods) if periods is None else tuple(periods)
+        field.divergence_check = "∇·(∇×A) (curl of a vector potential)"
         return field
 
     @classmethod
@@ -602,93 +648,5 @@ class Field:
         return f"Field(name={self.name!r}, {kind}, box={self.box})"
 
 
-def _curl(A: Sequence[Scalar]) -> Callable[[jax.Array], jax.Array]:
-    """x ↦ ∇×A(x) for three JAX scalar callables (autodiff), x of shape (3,)."""
-    grads = [jax.grad(lambda x, c=c: jnp.asarray(c(x[0], x[1], x[2]), float)) for c in A]
-
-    def curl(x):
-        d = [g(x) for g in grads]  # d[i][j] = ∂_j A_i
-        return jnp.stack([d[2][1] - d[1][2], d[0][2] - d[2][0], d[1][0] - d[0][1]])
-
-    return curl
-
-
 def _is_zero(c: Any) -> bool:
     return not callable(c) and sp.sympify(c) == 0
-
-
-# ---------------------------------------------------------------------------------------------
-# SymPy helpers
-# ---------------------------------------------------------------------------------------------
-def _param_subs(params, exprs, potentials, symbols):
-    if not params:
-        return {}, {}
-    if not isinstance(params, Mapping):
-        raise ValueError("params must be a dict {symbol or name: value}")
-    given = list(exprs)
-    if isinstance(potentials, Mapping):
-        for pair in potentials.values():
-            try:
-                given += [sp.sympify(p) for p in pair]
-            except (sp.SympifyError, TypeError):
-                pass  # malformed potentials are reported later
-    free = set().union(*(e.free_symbols for e in given)) - set(symbols)
-    by_name = {str(s): s for s in free}
-    subs, vals = {}, {}
-    for k, v in params.items():
-        if k in symbols or str(k) in map(str, symbols):
-            raise ValueError(f"parameter {k} is a coordinate of the field, not a parameter")
-        sym = k if isinstance(k, sp.Symbol) else by_name.get(str(k))
-        if sym is None or sym not in free:
-            raise ValueError(
-                f"unknown parameter {k!r}: the field's free symbols besides the coordinates are "
-                f"{sorted(map(str, free))}"
-            )
-        val = sp.sympify(v)
-        if val.free_symbols:
-            raise ValueError(f"parameter {k} must be a number; got {v!r}")
-        if val.has(sp.nan, sp.zoo, sp.oo, -sp.oo, sp.I):
-            raise ValueError(f"parameter {k} must be a finite real number; got {v!r}")
-        subs[sym] = val
-        vals[str(sym)] = float(val)
-    return subs, vals
-
-
-def _numeric_jac_scale(exprs, symbols, pts) -> float:
-    m = 0.0
-    for e in exprs:
-        for s in symbols:
-            f = sp.lambdify(symbols, sp.diff(e, s), modules="numpy")
-            v = np.broadcast_to(np.asarray(f(*pts.T), dtype=float), (len(pts),))
-            if np.all(np.isfinite(v)):
-                m = max(m, float(np.max(np.abs(v))))
-    return max(m, np.finfo(float).tiny)
-
-
-def _detect_linear(exprs, symbols) -> np.ndarray | None:
-    """A if a(x) = A x: a homogeneous linear polynomial, else a constant Jacobian with a(0) = 0."""
-    A = _linear_polynomial(exprs, symbols)
-    return A if A is not None else constant_jacobian(exprs, symbols)
-
-
-def _linear_polynomial(exprs, symbols) -> np.ndarray | None:
-    """A if every component is a homogeneous linear polynomial with numeric coefficients."""
-    A = np.zeros((3, 3))
-    for i, e in enumerate(exprs):
-        e = sp.expand(e)
-        if e == 0:
-            continue
-        if not e.is_polynomial(*symbols):
-            return None
-        poly = sp.Poly(e, *symbols)
-        if poly.total_degree() > 1:
-            return None
-        for j, s in enumerate(symbols):
-            c = poly.coeff_monomial(s)
-            if c.free_symbols:
-                return None
-            A[i, j] = float(c)
-        const = poly.coeff_monomial(1)
-        if const != 0:
-            return None
-    return A

@@ -21,6 +21,7 @@ import numpy as np
 
 from .._perm import Perm, as_perm
 from .._potentials import relabel_vector_potential
+from .._vecpot import VectorPotential
 from ..fields import Field
 
 __all__ = ["relabelled_field"]
@@ -57,7 +58,8 @@ def _build(field, pi: Perm) -> Field:
             quadrature_n=field.quadrature_n, closed_form=field.closed_form,
         )
         out._vector_potentials = [
-            relabel_vector_potential(A, pi, s) if not any(callable(c) for c in A)
+            relabel_vector_potential(A, pi, s)
+            if not isinstance(A, VectorPotential) and not any(callable(c) for c in A)
             else _relabel_callables(A, pi) for A in field._vector_potentials]
         return out
     comps = field.components
@@ -70,11 +72,15 @@ def _build(field, pi: Perm) -> Field:
         a_tilde, box=box, name=name, origin=origin, quadrature_n=field.quadrature_n
     )
     out._vector_potentials = [_relabel_callables(A, pi) for A in field._vector_potentials]
+    out.periods = tuple(getattr(field, "periods", (None,) * 3)[k] for k in idx)
     return out
 
 
 def _relabel_callables(A, pi: Perm) -> tuple:
-    """:func:`~vpforms._potentials.relabel_vector_potential` for scalar callables (0 stays 0)."""
+    """:func:`~vpforms._potentials.relabel_vector_potential` for scalar callables (0 stays 0), or
+    a :class:`~vpforms._vecpot.VectorPotential` relabelled by its own rule (exact stays exact)."""
+    if isinstance(A, VectorPotential):
+        return A.relabel(pi)
     idx, inv, sgn = list(pi.index), list(pi.inverse().index), float(pi.sign)
 
     def comp(k):
