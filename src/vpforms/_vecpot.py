@@ -135,7 +135,7 @@ class CallablePotential(VectorPotential):
     """A from three JAX scalar callables (χ by the periodic-aware Gauss–Legendre rule)."""
 
     def __init__(self, components: Sequence[Scalar], periods: Sequence[float | None] = (None,) * 3,
-                 description: str = "vector potential (gauge by quadrature)"):
+                 description: str = "vector potential"):
         comps = tuple(components)
         if len(comps) != 3 or not all(callable(c) or c == 0 for c in comps):
             raise ValueError("a vector potential needs three scalar callables (or 0)")

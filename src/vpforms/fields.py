@@ -172,6 +172,7 @@ class Field:
         self._vector_potentials: list[tuple] = []
         # per axis the period of the field (φ of a toroidal field), or None
         self.periods: tuple = (None, None, None)
+        self.coordinates = "cartesian (x1, x2, x3)"
 
         comps = self.components
 
