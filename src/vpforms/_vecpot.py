@@ -184,8 +184,9 @@ class RelabelledPotential(VectorPotential):
         return self._pull(self.base.antiderivative(self._idx[k], c, n), self._sign)
 
     def relabel(self, pi: Any) -> VectorPotential:
-        # (ρ then π): Ã̃(x) = sgn(π) sgn(ρ) A(x·π⁻¹·ρ⁻¹)·ρ·π — the base relabelled by π∘ρ
-        return self.base.relabel(as_perm(pi) * self.pi)
+        # ρ (this one) then π: sgn π sgn ρ · A(x·π⁻¹·ρ⁻¹)·ρ·π, the base relabelled by ρ∘π
+        # (tested against relabelling the field twice)
+        return self.base.relabel(self.pi * as_perm(pi))
 
 
 def curl_of(A: Sequence[Scalar]) -> Callable[[jax.Array], jax.Array]:

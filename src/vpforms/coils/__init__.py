@@ -1,0 +1,39 @@
+"""Magnetic fields of filamentary coils: closed polylines of straight current segments.
+
+The field and vector potential of one straight segment x_i → x_f carrying the current I are the
+closed forms of Hanson & Hirshman, *Compact expressions for the Biot–Savart fields of a filamentary
+segment*, Phys. Plasmas 9, 4410 (2002): with L = |x_f − x_i|, ê = (x_f − x_i)/L, R_i = |x − x_i|,
+R_f = |x − x_f| (SI units, μ0 = 4π·10⁻⁷ H/m),
+
+    A(x) = (μ0 I/4π) ê ln((R_i + R_f + L)/(R_i + R_f − L)),
+    B(x) = (μ0 I/4π) · 2L(R_i + R_f)/(R_i R_f ((R_i + R_f)² − L²)) · ê × (x − x_i),
+
+which are the Biot–Savart integrals (μ0 I/4π) ∫ dl/|r| and (μ0 I/4π) ∫ dl × r/|r|³ (r = x − x')
+along the segment. They are evaluated in a cancellation-free form (:mod:`vpforms.coils._segments`),
+summed over all segments of a :class:`CoilSet` in one vectorised JAX expression, and are
+differentiable: ∇×A = B and ∇·B = 0 hold to rounding for closed coils.
+
+* :class:`Coil`, :class:`CoilSet` — coils and sets (``B(x)``, ``A(x)``, ``from_symmetry``);
+* :func:`read_makegrid`, :func:`write_makegrid`, :class:`CoilFileError` — MAKEGRID ``coils.*`` files;
+* :func:`circular_tokamak`, :func:`l2_stellarator` — two coil sets with closed flux surfaces.
+
+``CoilSet.A`` is a Cartesian vector potential of a point (3,), so
+``vpforms.toroidal.toroidal_field(coilset.A, box, nfp=coilset.nfp)`` integrates the field lines of a
+coil set with the volume-preserving methods.
+"""
+
+from ._coilset import Coil, CoilSet
+from ._segments import MU0
+from .library import circular_tokamak, l2_stellarator
+from .makegrid import CoilFileError, read_makegrid, write_makegrid
+
+__all__ = [
+    "MU0",
+    "Coil",
+    "CoilFileError",
+    "CoilSet",
+    "circular_tokamak",
+    "l2_stellarator",
+    "read_makegrid",
+    "write_makegrid",
+]

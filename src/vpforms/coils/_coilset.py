@@ -1,0 +1,225 @@
+"""Filamentary coils: :class:`Coil` (a closed polyline with a current) and :class:`CoilSet`.
+
+A coil's field is the sum of the Hanson–Hirshman fields of its straight segments
+(:mod:`vpforms.coils._segments`); a coil set stacks the segments of all its coils into three arrays
+(starts, ends, currents) so that B and A at N points are one vectorised expression over N × S pairs.
+
+Symmetries (:meth:`CoilSet.from_symmetry`): field periodicity is the rotation by 2π/nfp about the
+z axis; stellarator symmetry is the map (R, φ, Z) → (R, −φ, −Z), in Cartesian coordinates
+(x, y, z) → (x, −y, −z), the rotation by π about the x axis. A current distribution rotated by a
+proper rotation M carries its field along, B'(Mx) = M B(x), which gives B_R even and B_φ, B_Z odd
+under the map; stellarator symmetry asks for the opposite parities,
+
+    B_R(R, −φ, −Z) = −B_R(R, φ, Z),   B_φ(R, −φ, −Z) = B_φ(R, φ, Z),   B_Z(R, −φ, −Z) = B_Z(R, φ, Z),
+
+so the mirror image of a coil carries the reversed current, −B'(Mx) = −M B(x).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Iterator, Sequence
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .. import _config  # noqa: F401  (float64)
+from ._segments import segments_A, segments_B
+
+__all__ = ["Coil", "CoilSet"]
+
+
+def _finite_scalar(value: Any, what: str) -> float:
+    if isinstance(value, bool) or np.ndim(value) != 0:
+        raise ValueError(f"{what} must be a real scalar; got {value!r}")
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{what} must be a real number; got {value!r}") from None
+    if not np.isfinite(v):
+        raise ValueError(f"{what} must be finite; got {v!r}")
+    return v
+
+
+class Coil:
+    """A closed polyline of points x_0, …, x_{M−1} (m) carrying the current I (A).
+
+    The polyline is closed automatically: its M segments are x_k → x_{k+1} and x_{M−1} → x_0. A last
+    point exactly equal to the first (the MAKEGRID convention) is dropped, so either form gives the
+    same coil. The current flows in the order of the points.
+
+    Parameters
+    ----------
+    points : array_like, shape (M, 3)
+        Vertices in Cartesian coordinates; at least 3 distinct points, all finite, no two
+        consecutive points equal (zero-length segments).
+    current : float
+        Current in ampere (finite).
+    group : int, optional
+        The MAKEGRID group number (default 1).
+    name : str, optional
+        A single token without whitespace (MAKEGRID writes it after the group number).
+
+    Raises
+    ------
+    ValueError
+        Naming what is wrong: shape, non-finite coordinates or current, too few distinct points,
+        a zero-length segment, a bad group or name.
+    """
+
+    __slots__ = ("current", "group", "name", "points")
+
+    def __init__(self, points: Any, current: float, group: int = 1, name: str = ""):
+        try:
+            pts = np.array(points, dtype=float)
+        except (TypeError, ValueError):
+            raise ValueError("coil points must be an array of numbers of shape (M, 3)") from None
+        if pts.ndim != 2 or pts.shape[1] != 3:
+            raise ValueError(f"coil points must have shape (M, 3); got {pts.shape}")
+        if not np.all(np.isfinite(pts)):
+            bad = int(np.argwhere(~np.isfinite(pts))[0, 0])
+            raise ValueError(f"coil point {bad} is not finite: {pts[bad].tolist()}")
+        if pts.shape[0] > 1 and np.array_equal(pts[0], pts[-1]):
+            pts = pts[:-1]  # an explicit closing point
+        if len(np.unique(pts, axis=0)) < 3:
+            raise ValueError(f"a coil needs at least 3 distinct points; got {len(np.unique(pts, axis=0))}")
+        steps = np.linalg.norm(np.roll(pts, -1, axis=0) - pts, axis=1)
+        if np.any(steps == 0):
+            k = int(np.argmin(steps))
+            raise ValueError(f"zero-length segment: coil points {k} and {(k + 1) % len(pts)} are equal ({pts[k].tolist()})")
+        if isinstance(group, bool) or not isinstance(group, (int, np.integer)):
+            raise ValueError(f"coil group must be an integer; got {group!r}")  # noqa: TRY004  (bad input: ValueError)
+        if not isinstance(name, str) or (name and len(name.split()) != 1) or name != name.strip():
+            raise ValueError(f"coil name must be a single token without whitespace; got {name!r}")
+        pts.setflags(write=False)
+        self.points = pts
+        self.current = _finite_scalar(current, "coil current")
+        self.group = int(group)
+        self.name = name
+
+    def segments(self) -> tuple[np.ndarray, np.ndarray]:
+        """(starts, ends), each (M, 3): the segments x_k → x_{k+1 mod M}."""
+        return self.points, np.roll(self.points, -1, axis=0)
+
+    def with_current(self, current: float) -> Coil:
+        """The same polyline with another current."""
+        return Coil(self.points, current, self.group, self.name)
+
+    def __len__(self) -> int:
+        return len(self.points)
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Coil):
+            return NotImplemented
+        return (np.array_equal(self.points, other.points) and self.current == other.current
+                and self.group == other.group and self.name == other.name)
+
+    __hash__ = None  # type: ignore[assignment]
+
+    def __repr__(self) -> str:
+        nm = f", name={self.name!r}" if self.name else ""
+        return f"Coil({len(self.points)} points, current={self.current!r} A, group={self.group}{nm})"
+
+
+def _rotation_z(angle: float) -> np.ndarray:
+    c, s = np.cos(angle), np.sin(angle)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+#: stellarator symmetry (R, φ, Z) → (R, −φ, −Z): (x, y, z) → (x, −y, −z)
+_FLIP = np.diag([1.0, -1.0, -1.0])
+
+
+class CoilSet:
+    """A set of filamentary coils; B and A at points by the Hanson–Hirshman segment formulas.
+
+    Parameters
+    ----------
+    coils : sequence of Coil
+        At least one coil.
+    nfp : int, optional
+        Number of field periods the set is meant to have (a description: not checked; default 1).
+    stellsym : bool, optional
+        Whether the set is meant to be stellarator symmetric (a description; default False).
+
+    Notes
+    -----
+    ``B(x)`` and ``A(x)`` accept a point of shape (3,) or points (N, 3) (m) and return B (T) and
+    A (T·m) of the same shape; they are JAX-traceable (jit, vmap, jacfwd). ``A`` is a Cartesian
+    vector potential with ∇×A = B, e.g. for :class:`vpforms.toroidal.ToroidalPotential`.
+    """
+
+    def __init__(self, coils: Iterable[Coil], nfp: int = 1, stellsym: bool = False):
+        coils = tuple(coils)
+        if not coils:
+            raise ValueError("a coil set needs at least one coil")
+        for k, c in enumerate(coils):
+            if not isinstance(c, Coil):
+                raise ValueError(f"coil {k} is not a Coil: {type(c).__name__}")  # noqa: TRY004
+        if isinstance(nfp, bool) or not isinstance(nfp, (int, np.integer)) or nfp < 1:
+            raise ValueError(f"nfp must be a positive integer; got {nfp!r}")
+        if not isinstance(stellsym, (bool, np.bool_)):
+            raise ValueError(f"stellsym must be True or False; got {stellsym!r}")  # noqa: TRY004
+        self.coils: tuple[Coil, ...] = coils
+        self.nfp = int(nfp)
+        self.stellsym = bool(stellsym)
+        starts, ends = zip(*(c.segments() for c in coils))
+        currents = [np.full(len(c), c.current) for c in coils]
+        self._segments = (jnp.asarray(np.concatenate(starts)), jnp.asarray(np.concatenate(ends)),
+                          jnp.asarray(np.concatenate(currents)))
+
+    @classmethod
+    def from_symmetry(cls, base_coils: Sequence[Coil], nfp: int, stellsym: bool = False) -> CoilSet:
+        """The coil set of ``base_coils`` repeated over the nfp field periods (and mirrored).
+
+        For k = 0, …, nfp−1 every base coil rotated by 2πk/nfp about the z axis; with ``stellsym``
+        also its stellarator-symmetric image (R, φ, Z) → (R, −φ, −Z), i.e. (x, y, z) → (x, −y, −z),
+        with the current reversed (module docstring), rotated likewise. Order: for each k, the
+        rotated base coils, then their rotated images. The base coils are those of one period (of
+        one half-period with ``stellsym``): a base coil that is itself symmetric would be repeated.
+        """
+        base = tuple(base_coils)
+        if not base or not all(isinstance(c, Coil) for c in base):
+            raise ValueError("from_symmetry needs a non-empty sequence of Coil objects")
+        if isinstance(nfp, bool) or not isinstance(nfp, (int, np.integer)) or nfp < 1:
+            raise ValueError(f"nfp must be a positive integer; got {nfp!r}")
+        coils = []
+        for k in range(int(nfp)):
+            M = _rotation_z(2 * np.pi * k / nfp)
+            coils += [Coil(c.points @ M.T, c.current, c.group, c.name) for c in base]
+            if stellsym:
+                coils += [Coil(c.points @ (M @ _FLIP).T, -c.current, c.group, c.name) for c in base]
+        return cls(coils, nfp=int(nfp), stellsym=bool(stellsym))
+
+    def segments(self) -> tuple[jax.Array, jax.Array, jax.Array]:
+        """(starts (S, 3), ends (S, 3), currents (S,)): every segment of every coil, stacked."""
+        return self._segments
+
+    def B(self, x: Any) -> jax.Array:
+        """B (T) at x (m) of shape (3,) or (N, 3), the same shape."""
+        return segments_B(_points(x), *self._segments)
+
+    def A(self, x: Any) -> jax.Array:
+        """A (T·m, ∇×A = B) at x (m) of shape (3,) or (N, 3), the same shape."""
+        return segments_A(_points(x), *self._segments)
+
+    def __len__(self) -> int:
+        return len(self.coils)
+
+    def __iter__(self) -> Iterator[Coil]:
+        return iter(self.coils)
+
+    def __getitem__(self, k: int) -> Coil:
+        return self.coils[k]
+
+    def __repr__(self) -> str:
+        n_seg = int(self._segments[0].shape[0])
+        return f"CoilSet({len(self.coils)} coils, {n_seg} segments, nfp={self.nfp}, stellsym={self.stellsym})"
+
+
+def _points(x: Any) -> Any:
+    x = jnp.asarray(x, float)
+    if x.ndim not in (1, 2) or x.shape[-1] != 3:
+        raise ValueError(f"points must have shape (3,) or (N, 3); got {x.shape}")
+    return x
