@@ -34,7 +34,7 @@ from ._perm import as_perm
 from ._quadrature import DEFAULT_N, line_integral
 
 __all__ = [
-    "GAUGE_ZERO", "CallablePotential", "VectorPotential", "curl_of", "gauge_pair",
+    "GAUGE_ZERO", "CallablePotential", "SumPotential", "VectorPotential", "curl_of", "gauge_pair",
     "periodic_line_integral",
 ]
 
@@ -120,7 +120,7 @@ class VectorPotential:
         chi = self.antiderivative(k, float(origin[k]), n)
         return gauge_pair(self.components(), chi, splitting)
 
-    def relabel(self, pi: Any) -> "VectorPotential":
+    def relabel(self, pi: Any) -> VectorPotential:
         """Ã(x) = sgn π · A(x·π⁻¹)·π, the potential of the relabelled field ã(x) = a(x·π⁻¹)·π."""
         pi = as_perm(pi)
         return self if pi.is_identity else RelabelledPotential(self, pi)
@@ -187,6 +187,40 @@ class RelabelledPotential(VectorPotential):
         # ρ (this one) then π: sgn π sgn ρ · A(x·π⁻¹·ρ⁻¹)·ρ·π, the base relabelled by ρ∘π
         # (tested against relabelling the field twice)
         return self.base.relabel(self.pi * as_perm(pi))
+
+
+class SumPotential(VectorPotential):
+    """A = Σ_j A⁽ʲ⁾: the antiderivatives add, so the gauge is exact when every part's is
+    (a spline of the smooth coils plus the exact potential of a singular filament ring)."""
+
+    def __init__(self, parts: Sequence[VectorPotential], periods: Sequence[float | None] | None = None):
+        self.parts = tuple(parts)
+        if not self.parts or not all(isinstance(p, VectorPotential) for p in self.parts):
+            raise TypeError("SumPotential needs one or more VectorPotential parts")
+        self.periods = _check_periods(periods) if periods is not None else self.parts[0].periods
+        self.exact_gauge = all(p.exact_gauge for p in self.parts)
+        self.description = " + ".join(p.description for p in self.parts)
+
+    def components(self):
+        cs = [p.components() for p in self.parts]
+        return tuple(_summed([c[i] for c in cs]) for i in range(3))
+
+    def antiderivative(self, k: int, c: float, n: int = DEFAULT_N) -> Scalar:
+        return _summed([p.antiderivative(k, c, n) for p in self.parts])
+
+    def relabel(self, pi: Any) -> VectorPotential:
+        pi = as_perm(pi)
+        if pi.is_identity:
+            return self
+        periods = tuple(self.periods[k] for k in pi.index)
+        return SumPotential([p.relabel(pi) for p in self.parts], periods)
+
+
+def _summed(fns: Sequence[Scalar]) -> Scalar:
+    def f(x1, x2, x3):
+        return sum(g(x1, x2, x3) for g in fns)
+
+    return f
 
 
 def curl_of(A: Sequence[Scalar]) -> Callable[[jax.Array], jax.Array]:

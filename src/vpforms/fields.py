@@ -173,6 +173,8 @@ class Field:
         # per axis the period of the field (φ of a toroidal field), or None
         self.periods: tuple = (None, None, None)
         self.coordinates = "cartesian (x1, x2, x3)"
+        # points → None or ValueError for points off the field's domain (a gridded field's grid)
+        self.domain_check: Callable[[Any], None] | None = None
 
         comps = self.components
 
@@ -291,7 +293,11 @@ class Field:
     def check_potentials(self, splitting: str = "se", points: Any = None, what: str = "") -> None:
         """Raise :class:`PotentialError` unless the ``splitting`` pair may step on the domain: the
         box and ``points`` (see :func:`vpforms._potentials.check_pair`: no singular set of a
-        symbolic potential inside it; a numerically built pair reproduces a to 1e-8 relative)."""
+        symbolic potential inside it; a numerically built pair reproduces a to 1e-8 relative).
+        Points off the field's domain (:attr:`domain_check`: a gridded field's grid) are a
+        ValueError first."""
+        if points is not None and self.domain_check is not None:
+            self.domain_check(points)
         check_pair(self, splitting, points, what)
 
     def potential_vector_field(self, splitting: str = "se") -> Callable[[jax.Array], jax.Array]:

@@ -73,6 +73,9 @@ def _build(field, pi: Perm) -> Field:
     )
     out._vector_potentials = [_relabel_callables(A, pi) for A in field._vector_potentials]
     out.periods = tuple(getattr(field, "periods", (None,) * 3)[k] for k in idx)
+    check = getattr(field, "domain_check", None)
+    if check is not None:  # a point x of ã is the point x·π⁻¹ of a
+        out.domain_check = lambda pts: check(np.asarray(pts, float)[..., inv])
     return out
 
 

@@ -14,13 +14,14 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from . import abc, linear, lotka_volterra, rigid_body, stokes_sphere, tokamak
+from . import abc, coil_fields, linear, lotka_volterra, rigid_body, stokes_sphere, tokamak
 from ._base import Problem
 
 __all__ = [
     "Problem",
     "get",
     "names",
+    "coil_names",
     "abc",
     "linear",
     "lotka_volterra",
@@ -39,6 +40,13 @@ _MAKERS: dict[str, tuple[Callable[..., Problem], Callable[[], Problem] | None]] 
     "rigid_body": (rigid_body.make, rigid_body.default),
 }
 _GI_DEFAULT: list[Problem] = []
+#: field lines of coil sets (issue #20): fields in (u = R²/2, φ, Z) given by a spline of the coils'
+#: vector potential, not SymPy fields — kept out of :func:`names`, whose problems all have
+#: closed-form potentials and symbolic invariants (and run on the native backend)
+_COIL_MAKERS: dict[str, tuple[Callable[..., Problem], Callable[[], Problem]]] = {
+    "coil_tokamak": (coil_fields.make_tokamak, coil_fields.default_tokamak),
+    "coil_stellarator": (coil_fields.make_stellarator, coil_fields.default_stellarator),
+}
 
 
 def names() -> tuple[str, ...]:
@@ -46,11 +54,20 @@ def names() -> tuple[str, ...]:
     return tuple(_MAKERS)
 
 
+def coil_names() -> tuple[str, ...]:
+    """The coil-field problems (:mod:`vpforms.problems.coil_fields`): fields given by a spline of the
+    coils' vector potential in (u = R²/2, φ, Z), JAX backend."""
+    return tuple(_COIL_MAKERS)
+
+
 def get(name: str, **params) -> Problem:
     """The problem ``name`` with the given parameters (the cached default when none are given)."""
     key = str(name).lower().replace("-", "_")
+    if key in _COIL_MAKERS:
+        make, default = _COIL_MAKERS[key]
+        return make(**params) if params else default()
     if key not in _MAKERS:
-        raise KeyError(f"unknown problem {name!r}; known problems: {', '.join(_MAKERS)}")
+        raise KeyError(f"unknown problem {name!r}; known problems: {', '.join((*_MAKERS, *_COIL_MAKERS))}")
     make, default = _MAKERS[key]
     if params:
         return make(**params)

@@ -1,0 +1,170 @@
+"""Field lines of the two coil sets of :mod:`vpforms.coils.library`, as problems (issue #20).
+
+Both are vacuum magnetic fields of filamentary coils, traced in the toroidal coordinates
+x = (u = R²/2, φ, Z) of unit Jacobian (:mod:`vpforms.toroidal`), and both are *exactly* divergence
+free: the field is the curl of a vector potential, never an interpolated B.
+
+* ``coil_stellarator`` — the classical l = 2, m = 5 stellarator (:func:`~vpforms.coils.l2_stellarator`):
+  20 TF coils and two helical windings. The coils' Hanson–Hirshman A is sampled on an (R, φ, Z)
+  grid over one field period and interpolated by a C² cubic spline in (u, φ, Z)
+  (:func:`vpforms.grids.cylindrical_potential`); B = ∇×A of the spline, so the SE/DL pairs of all 36
+  cases are exact splines. Magnetic axis at (R, Z) = (0.983112, 0) m at φ = 0, ι ≈ 0.31–0.40
+  for lines 0.02–0.16 m outboard of it, confined region ending 0.17–0.18 m out (measured by
+  tracing the coils directly; see :func:`~vpforms.coils.l2_stellarator`).
+* ``coil_tokamak`` — the circular tokamak (:func:`~vpforms.coils.circular_tokamak`): 16 TF coils
+  (splined as above over one of the 16 field periods) plus the plasma current as an exact
+  circular filament ring at R0 (:class:`~vpforms.coils._ring.CircularRingPotential`, elliptic
+  integrals): the ring is the magnetic axis and singular, so it is not splined (a spline would
+  smear the singularity over the grid). Nested flux surfaces around the ring with q ≈ 0.5 at
+  0.1 m to ≈ 4 at 0.3 m (the coil set's measured q; the exact ring has the same q to the
+  polygon's O(1/M²)).
+
+The default initial conditions are points on the outboard midplane (Z = 0, φ = 0) inside the
+region of closed surfaces. The spline's own interpolation error (the difference between the
+traced field and the coils' field) is reported in ``problem.params["spline_error"]``: max |B_spline −
+B_coils| / max |B_coils| at points between the grid nodes.
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+import jax
+import numpy as np
+
+from .._vecpot import SumPotential, curl_of
+from ..coils import CoilSet, circular_tokamak, l2_stellarator
+from ..coils._ring import CircularRingPotential
+from ..grids import cylindrical_potential
+from ..toroidal import to_toroidal, toroidal_field
+from ._base import Problem
+
+__all__ = ["default_stellarator", "default_tokamak", "make_stellarator", "make_tokamak"]
+
+SOURCE = ("vacuum field of filamentary coils (Hanson & Hirshman, Phys. Plasmas 9, 4410 (2002)), "
+          "A splined on a grid, B = curl A; coil sets built in vpforms.coils.library")
+
+
+def _sample_A(coils, R, phi, Z) -> np.ndarray:
+    """Physical cylindrical (A_R, A_φ, A_Z) of the coils at the grid nodes, shape (3, nR, nφ, nZ)."""
+    RR, PP, ZZ = np.meshgrid(R, phi, Z, indexing="ij")
+    xyz = np.stack([RR * np.cos(PP), RR * np.sin(PP), ZZ], axis=-1).reshape(-1, 3)
+    A = np.asarray(coils.A(xyz)).reshape(RR.shape + (3,))
+    c, s = np.cos(PP), np.sin(PP)
+    return np.stack([A[..., 0] * c + A[..., 1] * s, -A[..., 0] * s + A[..., 1] * c, A[..., 2]])
+
+
+def _spline_error(field, coils, extra_B, box_R, box_Z, nfp, seed=0, n=400) -> float:
+    """max |B_spline − B_coils| / max |B_coils| at seeded random points of the box."""
+    rng = np.random.default_rng(seed)
+    pts = np.c_[rng.uniform(*box_R, n), rng.uniform(0, 2 * np.pi / nfp, n), rng.uniform(*box_Z, n)]
+    xyz = pts[:, [0, 1, 2]].copy()
+    xyz[:, 0], xyz[:, 1] = pts[:, 0] * np.cos(pts[:, 1]), pts[:, 0] * np.sin(pts[:, 1])
+    B = np.asarray(coils.B(xyz)) + (0 if extra_B is None else extra_B(xyz))
+    p = np.asarray(to_toroidal(xyz))
+    a = np.asarray(field(p))
+    R, phi = pts[:, 0], pts[:, 1]
+    BR, Bphi, BZ = a[:, 0] / R, a[:, 1] * R, a[:, 2]
+    Bx, By = BR * np.cos(phi) - Bphi * np.sin(phi), BR * np.sin(phi) + Bphi * np.cos(phi)
+    return float(np.max(np.abs(np.c_[Bx, By, BZ] - B)) / np.max(np.abs(B)))
+
+
+def _x0(R_axis: float, offsets) -> np.ndarray:
+    return np.asarray(to_toroidal(np.c_[R_axis + np.asarray(offsets), np.zeros(len(offsets)),
+                                        np.zeros(len(offsets))]))
+
+
+def make_stellarator(*, n_R: int = 40, n_phi: int = 32, n_Z: int = 40, R: tuple = (0.80, 1.18),
+                     Z: tuple = (-0.18, 0.18), **coil_params) -> Problem:
+    """The l = 2 stellarator's field lines (module docstring); ``coil_params`` go to
+    :func:`vpforms.coils.l2_stellarator`, the grid is n_R × n_phi × n_Z nodes over one period."""
+    coils = l2_stellarator(**coil_params)
+    nfp = coils.nfp
+    Rn, Zn = np.linspace(*R, n_R), np.linspace(*Z, n_Z)
+    phin = 2 * np.pi / nfp * np.arange(n_phi) / n_phi
+    pot, _ = cylindrical_potential(Rn, phin, Zn, nfp=nfp, A=_sample_A(coils, Rn, phin, Zn),
+                                   source="l2_stellarator coils")
+    field = toroidal_field(pot, pot.grid_box, nfp=nfp, name="coil_stellarator", origin=pot.center)
+    field.domain_check = _covers(pot)
+    err = _spline_error(field, coils, None, (R[0] + 0.02, R[1] - 0.02), (Z[0] + 0.02, Z[1] - 0.02), nfp)
+    return Problem(
+        name="coil_stellarator", field=field,
+        params={"grid": f"{n_R}x{n_phi}x{n_Z}", "spline_error": err, "nfp": nfp, **coil_params},
+        x0=_x0(0.983112, [0.02, 0.04, 0.08, 0.12, 0.14]),
+        invariants={}, invariant_exprs={}, source=SOURCE,
+        periodic=(None, 2 * np.pi / nfp, None), box=pot.grid_box,
+        description="l = 2, m = 5 stellarator coils: field lines in (u = R²/2, φ, Z)",
+        sampler=_midplane_sampler(0.983112, 0.02, 0.14),
+    )
+
+
+def make_tokamak(*, n_R: int = 48, n_phi: int = 12, n_Z: int = 48, R: tuple = (0.58, 1.42),
+                 Z: tuple = (-0.40, 0.40), **coil_params) -> Problem:
+    """The circular tokamak's field lines (module docstring): its TF (and VF) coils splined, its
+    plasma-current ring exact; ``coil_params`` go to :func:`vpforms.coils.circular_tokamak`."""
+    all_coils = circular_tokamak(**coil_params)
+    ring = [c for c in all_coils if c.name == "plasma"]
+    if len(ring) != 1:
+        raise RuntimeError(f"expected one plasma-current ring in the coil set; found {len(ring)}")
+    rest = CoilSet([c for c in all_coils if c is not ring[0]], nfp=all_coils.nfp)
+    pts = np.asarray(ring[0].points)
+    # the circle the ring polygon is inscribed in
+    R_ring, z_ring = float(np.max(np.hypot(pts[:, 0], pts[:, 1]))), float(np.mean(pts[:, 2]))
+    exact_ring = CircularRingPotential(R_ring, float(ring[0].current), z_ring)
+    nfp = rest.nfp
+    Rn, Zn = np.linspace(*R, n_R), np.linspace(*Z, n_Z)
+    phin = 2 * np.pi / nfp * np.arange(n_phi) / n_phi
+    pot, _ = cylindrical_potential(Rn, phin, Zn, nfp=nfp, A=_sample_A(rest, Rn, phin, Zn),
+                                   source="circular_tokamak TF coils")
+    A = SumPotential([pot, exact_ring], periods=pot.periods)
+    field = toroidal_field(A, pot.grid_box, nfp=nfp, name="coil_tokamak", origin=pot.center)
+    field.domain_check = _covers(pot)
+    err = _spline_error(field, rest, _ring_B(exact_ring), (0.7, 1.3), (-0.3, 0.3), nfp)
+    return Problem(
+        name="coil_tokamak", field=field,
+        params={"grid": f"{n_R}x{n_phi}x{n_Z}", "spline_error": err, "nfp": nfp, **coil_params},
+        x0=_x0(R_ring, [0.10, 0.15, 0.20, 0.25, 0.30]),
+        invariants={}, invariant_exprs={}, source=SOURCE,
+        periodic=(None, 2 * np.pi / nfp, None), box=pot.grid_box,
+        description="circular tokamak coils + exact plasma ring: field lines in (u = R²/2, φ, Z)",
+        sampler=_midplane_sampler(R_ring, 0.10, 0.30),
+    )
+
+
+def _ring_B(ring: CircularRingPotential):
+    """Cartesian B of the exact ring (curl of its covariant potential, back in Cartesian)."""
+    curl = jax.jit(jax.vmap(curl_of(ring.components())))
+
+    def B(xyz):
+        p = np.asarray(to_toroidal(xyz))
+        a = np.asarray(curl(p))
+        R, phi = np.sqrt(2 * p[:, 0]), p[:, 1]
+        BR, Bphi = a[:, 0] / R, a[:, 1] * R
+        return np.c_[BR * np.cos(phi) - Bphi * np.sin(phi), BR * np.sin(phi) + Bphi * np.cos(phi), a[:, 2]]
+
+    return B
+
+
+def _covers(pot):
+    def check(points):
+        pot.check_covers(points, what="starting point", names=("u", "φ", "Z"))
+
+    return check
+
+
+def _midplane_sampler(R_axis: float, lo: float, hi: float):
+    def sample(rng, n):
+        return _x0(R_axis, rng.uniform(lo, hi, n)) if n else np.zeros((0, 3))
+
+    return sample
+
+
+@lru_cache(maxsize=1)
+def default_stellarator() -> Problem:
+    return make_stellarator()
+
+
+@lru_cache(maxsize=1)
+def default_tokamak() -> Problem:
+    return make_tokamak()
+

@@ -1,0 +1,79 @@
+"""Coil fields traced exactly volume preserving (issue #20): the problems ``coil_stellarator`` and
+``coil_tokamak`` (vpforms.problems.coil_fields) — coils → spline of A in (u = R²/2, φ, Z) → B = ∇×A —
+stepped by the generating-form methods."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+import vpforms
+from vpforms import RESULTS, problems
+from vpforms.diagnostics.volume import log_det
+
+
+@pytest.fixture(scope="module")
+def stellarator():
+    return problems.get("coil_stellarator")
+
+
+@pytest.fixture(scope="module")
+def tokamak():
+    return problems.get("coil_tokamak")
+
+
+def _flow(field, x, h):
+    return np.array([solve_ivp(lambda t, y: np.asarray(field(y)), (0, h), xi, method="DOP853",
+                               rtol=1e-13, atol=1e-14).y[:, -1] for xi in x])
+
+
+def _check_method(prob, case, **options):
+    """|det J − 1| ≤ 1e-12 over two steps, and one-step error ∝ h² (ratio ≈ 4 as h halves)."""
+    m = vpforms.scheme(prob.field, case, recover=False, **options)
+    x0 = prob.x0[:3]
+    ld = log_det(m, x0, 0.02, 2)
+    assert ld.ok and ld.max_abs <= 1e-12, (case, ld.max_abs)
+    errs = []
+    for h in (0.02, 0.01):
+        sol = vpforms.integrate(m, x0, h, 1, progress=False, backend="jax")
+        assert np.all(np.asarray(sol.status) == RESULTS.successful)
+        errs.append(np.abs(np.asarray(sol.xs)[:, -1] - _flow(prob.field, x0, h)).max())
+    assert 3.5 <= errs[0] / errs[1] <= 4.5, (case, errs)
+
+
+def test_coil_problems_are_registered_with_their_spline_error(stellarator):
+    assert problems.coil_names() == ("coil_tokamak", "coil_stellarator")
+    assert set(problems.coil_names()).isdisjoint(problems.names())
+    p = stellarator
+    assert p.params["spline_error"] < 1e-3  # the spline of A against the coils' own B
+    assert p.field.periods == (None, 2 * np.pi / 5, None)
+    assert "spline" in p.field.potential_methods["se"]
+    # exact gauge: both pairs reproduce the spline field to rounding
+    assert p.field.reconstruction_error("se") <= 1e-12 and p.field.reconstruction_error("dl") <= 1e-12
+
+
+def test_a_starting_point_off_the_grid_is_refused_by_name(stellarator):
+    m = vpforms.scheme(stellarator.field, "SE+SE", recover=False)
+    bad = np.array([[0.5 * 1.5**2, 0.0, 0.0]])  # R = 1.5 m: outside the grid's R ≤ 1.18
+    with pytest.raises(ValueError, match="outside the grid"):
+        vpforms.integrate(m, bad, 0.01, 2, progress=False, backend="jax")
+
+
+@pytest.mark.slow  # ~40 s: compiling the step, its Jacobian and two step sizes on the spline
+def test_se_se_on_the_stellarator_spline_is_volume_preserving_and_consistent(stellarator):
+    _check_method(stellarator, "SE+SE")
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("case", ["DL+DL", "SE+DL", vpforms.Case((2, 3, 1), (3, 1, 2)),
+                                  vpforms.Case((1, 3, 2), (2, 1, 3))])
+def test_other_classes_and_cases_on_the_stellarator(stellarator, case):
+    _check_method(stellarator, case, **({"fast": True} if case in ("DL+DL", "SE+DL") else {}))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("case", ["SE+SE", "DL+DL"])
+def test_the_tokamak_spline_plus_exact_ring(tokamak, case):
+    assert tokamak.params["spline_error"] < 1e-3
+    _check_method(tokamak, case, **({"fast": True} if case == "DL+DL" else {}))
