@@ -44,6 +44,11 @@ class InconsistentStepError(VPFormsError):
     reproduce the field at that point)."""
 
 
+class LeftDomainError(VPFormsError):
+    """The field line left the field's domain (the grid of a gridded field): the step could not be
+    taken because the field is not defined there — a stop, not a failure of the method."""
+
+
 class NotDivergenceFreeError(VPFormsError, ValueError):
     """A vector field given as divergence free is not."""
 
@@ -56,6 +61,7 @@ class RESULTS:
     not_converged = 2
     nonfinite = 3
     inconsistent = 4
+    left_domain = 5
 
     messages = {
         successful: "converged",
@@ -63,6 +69,7 @@ class RESULTS:
         not_converged: "Newton iteration did not converge",
         nonfinite: "non-finite input or result (NaN/inf)",
         inconsistent: "inconsistent step: |X − x − h a(x)| > κ·|h a(x)| (the step does not follow the field)",
+        left_domain: "the field line left the field's domain (the grid of a gridded field)",
     }
     #: short reason names for counts ("163 twist condition failed, 8 non-finite")
     short = {
@@ -71,12 +78,14 @@ class RESULTS:
         not_converged: "Newton not converged",
         nonfinite: "non-finite",
         inconsistent: "inconsistent step",
+        left_domain: "left the domain",
     }
     errors = {
         twist_failure: TwistConditionError,
         not_converged: ConvergenceError,
         nonfinite: NonFiniteError,
         inconsistent: InconsistentStepError,
+        left_domain: LeftDomainError,
     }
 
 
@@ -91,7 +100,8 @@ def raise_for_status(status, what: str = "generating map", max_indices: int = 5)
     flat = status.reshape(-1)
     parts = []
     first_code = None
-    for code in (RESULTS.nonfinite, RESULTS.twist_failure, RESULTS.not_converged, RESULTS.inconsistent):
+    for code in (RESULTS.nonfinite, RESULTS.twist_failure, RESULTS.not_converged, RESULTS.inconsistent,
+                 RESULTS.left_domain):
         idx = np.flatnonzero(flat == code)
         if idx.size:
             first_code = first_code if first_code is not None else code

@@ -3,6 +3,7 @@ expressions, point and box helpers, and the SymPy zero test used by every symbol
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -10,6 +11,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import sympy as sp
+from sympy.core.function import AppliedUndef
 
 from . import _config  # noqa: F401  (float64)
 from ._errors import NotDivergenceFreeError, VPFormsError
@@ -68,17 +70,17 @@ def vf3(F: Scalar) -> Callable[[jax.Array], jax.Array]:
 
 
 def vf1_expr(F: Any, symbols: Sequence[sp.Symbol] = SYMBOLS) -> tuple:
-    x1, x2, x3 = symbols
+    _, x2, x3 = symbols
     return (sp.Integer(0), sp.diff(F, x3), -sp.diff(F, x2))
 
 
 def vf2_expr(F: Any, symbols: Sequence[sp.Symbol] = SYMBOLS) -> tuple:
-    x1, x2, x3 = symbols
+    x1, _, x3 = symbols
     return (-sp.diff(F, x3), sp.Integer(0), sp.diff(F, x1))
 
 
 def vf3_expr(F: Any, symbols: Sequence[sp.Symbol] = SYMBOLS) -> tuple:
-    x1, x2, x3 = symbols
+    x1, x2, _ = symbols
     return (sp.diff(F, x2), -sp.diff(F, x1), sp.Integer(0))
 
 
@@ -128,9 +130,124 @@ def sample_box(box: Any, n: int, seed: int = 0) -> np.ndarray:
     return uniform_in_box(box, np.random.default_rng(seed), n)
 
 
+# ---------------------------------------------------------------------------------------------
+# SymPy special functions → JAX (and SciPy, for the numpy checks)
+# ---------------------------------------------------------------------------------------------
+def _is_int(v: Any, lo: int = 0) -> bool:
+    return bool(getattr(v, "is_Integer", False)) and int(v) >= lo
+
+
+def _is_pos_number(v: Any) -> bool:
+    return bool(getattr(v, "is_number", False)) and bool(v.is_extended_positive)
+
+
+def _erfi(x):
+    """erfi x = (2/√π) e^{x²} D(x), D the Dawson integral (jax.scipy has no erfi)."""
+    import jax.scipy.special as jsp
+
+    return 2.0 / np.sqrt(np.pi) * jnp.exp(x * x) * jsp.dawsn(x)
+
+
+def _special_functions() -> dict[str, tuple[Callable, Callable, Callable[[tuple], bool]]]:
+    """SymPy class name → (JAX function, SciPy function, when it applies to the SymPy args).
+
+    The name is what ``lambdify`` prints for the function (a ``modules`` dict entry becomes a
+    user function printed by name), so these replace SymPy's fallbacks to ``math`` (``math.erf``
+    cannot take a tracer) and fill in what the JAX printer does not know."""
+    import jax.scipy.special as jsp
+    import scipy.special as ss
+
+    def always(args: tuple) -> bool:
+        return True
+
+    return {
+        "erf": (jsp.erf, ss.erf, always),
+        "erfc": (jsp.erfc, ss.erfc, always),
+        "erfinv": (jsp.erfinv, ss.erfinv, always),
+        "erfcinv": (lambda x: jsp.erfinv(1.0 - x), ss.erfcinv, always),  # erfc⁻¹(x) = erf⁻¹(1 − x)
+        "erfi": (_erfi, ss.erfi, always),
+        "erf2": (lambda x, y: jsp.erf(y) - jsp.erf(x), lambda x, y: ss.erf(y) - ss.erf(x), always),
+        "gamma": (jsp.gamma, ss.gamma, always),
+        "loggamma": (jsp.gammaln, ss.gammaln, always),  # real x > 0: log Γ(x)
+        "factorial": (lambda x: jsp.gamma(x + 1.0), lambda x: ss.gamma(x + 1.0), always),
+        # B(a, b) = Γ(a)Γ(b)/Γ(a + b) through log Γ (jax's beta is off by ~1e-7 relative at a = 12)
+        "beta": (lambda a, b: jsp.gammasgn(a) * jsp.gammasgn(b) * jsp.gammasgn(a + b)
+                 * jnp.exp(jsp.gammaln(a) + jsp.gammaln(b) - jsp.gammaln(a + b)), ss.beta, always),
+        # polygamma(0, x) is digamma(x)
+        "polygamma": (jsp.polygamma, ss.polygamma, lambda a: _is_int(a[0])),
+        # ζ(s) = ζ(s, 1) (Hurwitz)
+        "zeta": (lambda s, a=1.0: jsp.zeta(s, a), lambda s, a=1.0: ss.zeta(s, a), always),
+        "Ei": (jsp.expi, ss.expi, always),
+        # E₁(x) = −Ei(−x) for x > 0 (jax's exp1 has no second derivative)
+        "expint": (lambda n, x: -jsp.expi(-x), lambda n, x: ss.exp1(x), lambda a: a[0] == 1),
+        "lowergamma": (lambda a, x: jsp.gammainc(a, x) * jsp.gamma(a),  # γ(a, x) = P(a, x) Γ(a)
+                       lambda a, x: ss.gammainc(a, x) * ss.gamma(a), lambda a: _is_pos_number(a[0])),
+        "uppergamma": (lambda a, x: jsp.gammaincc(a, x) * jsp.gamma(a),  # Γ(a, x) = Q(a, x) Γ(a)
+                       lambda a, x: ss.gammaincc(a, x) * ss.gamma(a), lambda a: _is_pos_number(a[0])),
+        "besseli": (lambda nu, x: (jsp.i0, jsp.i1)[int(nu)](x), ss.iv, lambda a: a[0] in (0, 1)),
+        "Si": (lambda x: jsp.sici(x)[0], lambda x: ss.sici(x)[0], always),
+        "Ci": (lambda x: jsp.sici(x)[1], lambda x: ss.sici(x)[1], always),
+        # SymPy's and SciPy's Fresnel integrals both are ∫₀ˣ sin(πt²/2) dt, ∫₀ˣ cos(πt²/2) dt
+        "fresnels": (lambda x: jsp.fresnel(x)[0], lambda x: ss.fresnel(x)[0], always),
+        "fresnelc": (lambda x: jsp.fresnel(x)[1], lambda x: ss.fresnel(x)[1], always),
+    }
+
+
+_SPECIAL: dict[str, tuple[Callable, Callable, Callable[[tuple], bool]]] = {}
+
+
+def _special() -> dict[str, tuple[Callable, Callable, Callable[[tuple], bool]]]:
+    if not _SPECIAL:
+        _SPECIAL.update(_special_functions())
+    return _SPECIAL
+
+
+def _printable(f: sp.Basic, printer: Any) -> bool:
+    """Does ``printer`` print the function application ``f`` itself (no ``math``/``mpmath``
+    fallback, which cannot take arrays or tracers)?  Its arguments are replaced by symbols so that
+    only this function is judged."""
+    try:
+        g = f.func(*(sp.Dummy(real=True) for _ in f.args))
+    except Exception:  # noqa: BLE001 - a function that needs its own arguments
+        g = f
+    try:
+        out = printer.doprint(g)
+    except Exception:  # noqa: BLE001 - PrintMethodNotImplementedError (SymPy ≥ 1.13)
+        return False
+    return "Not supported" not in out and not re.search(r"\b(mpmath|math)\.", out)
+
+
+def jax_unsupported(expr: Any) -> list[str]:
+    """The functions in ``expr`` that have no JAX implementation here, as ``name`` (or
+    ``name(args)`` when only some arguments are supported, e.g. besseli(2, x)); [] if none."""
+    from sympy.printing.numpy import JaxPrinter
+
+    printer = JaxPrinter({"fully_qualified_modules": True})
+    special = _special()
+    bad: set[str] = set()
+    for f in sp.sympify(expr).atoms(sp.Function):
+        name = type(f).__name__
+        if name in special:
+            if not special[name][2](f.args):
+                bad.add(str(f.func(*f.args)))
+        elif isinstance(f, AppliedUndef) or not _printable(f, printer):
+            bad.add(name)
+    return sorted(bad)
+
+
 def _lambdify_scalar(expr: Any, symbols: Sequence[sp.Symbol]) -> Scalar:
-    """SymPy expression → JAX scalar callable (x1, x2, x3) -> scalar (float64)."""
-    f = sp.lambdify(tuple(symbols), expr, modules="jax")
+    """SymPy expression → JAX scalar callable (x1, x2, x3) -> scalar (float64).
+
+    Special functions go to ``jax.scipy.special`` / ``jax.numpy`` (:func:`_special_functions`), so
+    the callable traces under ``jit`` and ``grad``.  ValueError naming the function if ``expr``
+    uses one with no JAX implementation (:func:`jax_unsupported`)."""
+    bad = jax_unsupported(expr)
+    if bad:
+        raise ValueError(
+            f"{expr} cannot be evaluated with JAX: it uses {', '.join(bad)}, which has no JAX "
+            f"implementation in vpforms (supported special functions: "
+            f"{', '.join(sorted(_special()))}, and what jax.numpy has)")
+    f = _lambdify_with(symbols, expr, "jax")
     if not (sp.sympify(expr).free_symbols & set(symbols)):
         const = float(expr)
 
@@ -146,6 +263,35 @@ def _lambdify_scalar(expr: Any, symbols: Sequence[sp.Symbol]) -> Scalar:
     g.__doc__ = f"JAX scalar function of {tuple(map(str, symbols))}: {expr}"
     g._vpforms_expr = expr  # type: ignore[attr-defined]
     return g
+
+
+def _lambdify_numpy(symbols: Sequence[sp.Symbol], expr: Any) -> Callable:
+    """SymPy expression → NumPy function of arrays (SciPy for the special functions of
+    :func:`_special_functions`; SymPy's ``numpy`` module would call ``math.erf`` on arrays)."""
+    return _lambdify_with(symbols, expr, "scipy")
+
+
+def _lambdify_with(symbols: Sequence[sp.Symbol], expr: Any, kind: str) -> Callable:
+    """``sympy.lambdify`` with the functions of :func:`_special_functions` printed by name and
+    bound to their JAX (``kind="jax"``) or SciPy (``"scipy"``) implementation.  SymPy's printers
+    have their own print methods for some of them (e.g. ``fresnels``, not supported by the JAX
+    printer) that would ignore a ``modules`` dict, so the printer is subclassed."""
+    from sympy.printing.numpy import JaxPrinter, SciPyPrinter
+
+    special = _special()
+    base = JaxPrinter if kind == "jax" else SciPyPrinter
+
+    class Printer(base):  # type: ignore[valid-type, misc]
+        def _print(self, e, **kwargs):
+            if isinstance(e, sp.Function) and type(e).__name__ in special:
+                return f"{type(e).__name__}({', '.join(self._print(a) for a in e.args)})"
+            return super()._print(e, **kwargs)
+
+    printer = Printer({"fully_qualified_modules": False, "inline": True,
+                       "allow_unknown_functions": True, "user_functions": {}})
+    ns = {k: v[0 if kind == "jax" else 1] for k, v in special.items()}
+    modules = [ns, "jax"] if kind == "jax" else [ns, "scipy", "numpy"]
+    return sp.lambdify(tuple(symbols), expr, modules=modules, printer=printer)
 
 
 def _float_scale(exprs: Sequence[Any]) -> float:
@@ -180,7 +326,7 @@ def _decide_zero(expr: Any, symbols: Sequence[sp.Symbol], float_thr: float) -> b
     for simp in (sp.trigsimp, sp.simplify):
         try:
             s = simp(e)
-        except Exception:  # pragma: no cover - SymPy internals
+        except Exception:  # noqa: BLE001, S112  # pragma: no cover - SymPy internals
             continue
         if s == 0:
             return True
@@ -190,7 +336,7 @@ def _decide_zero(expr: Any, symbols: Sequence[sp.Symbol], float_thr: float) -> b
         return None
     try:
         return s.equals(0)  # True, False (a nonzero value found), or None
-    except Exception:  # pragma: no cover - SymPy internals
+    except Exception:  # noqa: BLE001  # pragma: no cover - SymPy internals
         return None
 
 

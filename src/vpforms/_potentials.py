@@ -13,25 +13,27 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-import jax
 import jax.numpy as jnp
 import numpy as np
 import sympy as sp
 
 from ._fieldops import (
+    _SPLITTINGS,
+    SYMBOLS,
     PotentialError,
     _float_scale,
     _fmt_pt,
+    _lambdify_numpy,
     _symbolic_zero,
+    jax_unsupported,
     sample_box,
-    _SPLITTINGS,
-    SYMBOLS,
     vf1_expr,
     vf2_expr,
     vf3_expr,
 )
 from ._quadrature import line_integral
 from ._vecpot import GAUGE_ZERO, CallablePotential
+
 
 def _potential_key(k: Any) -> str:
     """A key of the ``potentials`` argument: a splitting ("se", "dl") or "A" (a vector potential)."""
@@ -54,7 +56,7 @@ def _split_formula(key: str) -> str:
 
 def _check_potentials_arg(potentials: Any) -> dict[str, tuple]:
     if not isinstance(potentials, Mapping):
-        raise ValueError('potentials must be a dict {"se": (F1, F3), "dl": (G1, G2), "A": (A1, A2, A3)}')
+        raise ValueError('potentials must be a dict {"se": (F1, F3), "dl": (G1, G2), "A": (A1, A2, A3)}')  # noqa: TRY004
     out = {}
     for k, pair in potentials.items():
         key = _potential_key(k)
@@ -123,7 +125,7 @@ def potential_exprs(
             Q = -integ(a1, x3, t, c3) + integ(a3.xreplace({x3: c3}), x1, s, c1)  # G2
     except _NoClosedForm:
         return None
-    except Exception:  # SymPy may raise on hard integrands: fall back to quadrature
+    except Exception:  # noqa: BLE001 - SymPy may raise on hard integrands: fall back to quadrature
         return None
     pair = (sp.expand(P), sp.expand(Q))
     if any(p.has(sp.Piecewise) for p in pair):
@@ -132,9 +134,12 @@ def potential_exprs(
 
 
 def _closed_form_potentials(field: Any, splitting: str):
-    """SymPy closed forms of MATH.md §3, verified symbolically; None if integrate fails."""
+    """SymPy closed forms of MATH.md §3, verified symbolically; None if integrate fails, or if the
+    closed form needs a function with no JAX implementation (e.g. hyper, Shi) or complex numbers
+    (e.g. fresnels(e^{iπ/4}x)·e^{−3iπ/4}, real but not evaluable in float64): the field's own
+    components then give the potentials by quadrature."""
     pair = potential_exprs(field.exprs, field.symbols, splitting, field.origin)
-    if pair is None:
+    if pair is None or any(p.has(sp.I) or jax_unsupported(p) for p in pair):
         return None
     thr = 1e-12 * _float_scale(field.exprs)
     res = _residual_exprs(field.exprs, field.symbols, splitting, pair)
@@ -147,18 +152,25 @@ class _NoClosedForm(Exception):
     pass
 
 
-def _quadrature_potentials(comps, splitting: str, origin, n: int):
-    """Differentiable Gauss–Legendre potentials (MATH.md §3 with base point ``origin``)."""
+def _quadrature_potentials(comps, splitting: str, origin, n: int, integral=line_integral):
+    """Differentiable Gauss–Legendre potentials (MATH.md §3 with base point ``origin``):
+
+        SE:  F³ = ∫_{c₂}^{x₂} a₁(x₁,s,x₃) ds,  F¹ = −∫_{c₂}^{x₂} a₃(x₁,s,x₃) ds + ∫_{c₃}^{x₃} a₂(x₁,c₂,t) dt,
+        DL:  G¹ = ∫_{c₃}^{x₃} a₂(x₁,x₂,t) dt,  G² = −∫_{c₃}^{x₃} a₁(x₁,x₂,t) dt + ∫_{c₁}^{x₁} a₃(s,x₂,c₃) ds,
+
+    each integral the n-point rule ``integral(f, lower, upper, n)``: :func:`line_integral` (JAX, the
+    default) or :func:`vpforms._quadrature.line_integral_expr` (the same rule as SymPy, for the native
+    backend, with ``comps`` mapping SymPy arguments to SymPy expressions)."""
     a1, a2, a3 = comps
     c1, c2, c3 = origin
 
     if splitting == "se":
 
         def F3(x1, x2, x3):
-            return line_integral(lambda s: a1(x1, s, x3), c2, x2, n)
+            return integral(lambda s: a1(x1, s, x3), c2, x2, n)
 
         def F1(x1, x2, x3):
-            return -line_integral(lambda s: a3(x1, s, x3), c2, x2, n) + line_integral(
+            return -integral(lambda s: a3(x1, s, x3), c2, x2, n) + integral(
                 lambda t: a2(x1, c2, t), c3, x3, n
             )
 
@@ -166,10 +178,10 @@ def _quadrature_potentials(comps, splitting: str, origin, n: int):
         return F1, F3
 
     def G1(x1, x2, x3):
-        return line_integral(lambda t: a2(x1, x2, t), c3, x3, n)
+        return integral(lambda t: a2(x1, x2, t), c3, x3, n)
 
     def G2(x1, x2, x3):
-        return -line_integral(lambda t: a1(x1, x2, t), c3, x3, n) + line_integral(
+        return -integral(lambda t: a1(x1, x2, t), c3, x3, n) + integral(
             lambda s: a3(s, x2, c3), c1, x1, n
         )
 
@@ -265,7 +277,7 @@ def _singular_sets(expr: sp.Expr, symbols: Sequence[sp.Symbol]) -> list[tuple[sp
         if g.is_polynomial(*symbols):
             try:
                 facs = sp.factor_list(g, *symbols)[1] or facs
-            except Exception:  # noqa: BLE001 - factoring is only a refinement
+            except Exception:  # noqa: BLE001, S110 - factoring is only a refinement
                 pass
         for f, _ in facs:
             if f.free_symbols & syms and (f, kind) not in out:
@@ -274,7 +286,7 @@ def _singular_sets(expr: sp.Expr, symbols: Sequence[sp.Symbol]) -> list[tuple[sp
 
 
 def _numpy_fn(expr, symbols):
-    f = sp.lambdify(tuple(symbols), expr, modules="numpy")
+    f = _lambdify_numpy(symbols, expr)
 
     def g(pts):
         with np.errstate(all="ignore"):
@@ -376,7 +388,7 @@ def _short(e: Any, n: int = 160) -> str:
 
 
 def _pair_problem(field: Any, splitting: str, pts) -> str | None:
-    fns, exprs, how = field._get(splitting)
+    _, exprs, how = field._get(splitting)
     names = _NAMES[splitting]
     label = f"the {splitting.upper()} potentials of field {field.name!r} ({how})"
     if exprs is not None:

@@ -175,6 +175,9 @@ class Field:
         self.coordinates = "cartesian (x1, x2, x3)"
         # points → None or ValueError for points off the field's domain (a gridded field's grid)
         self.domain_check: Callable[[Any], None] | None = None
+        # x (3,) → bool (JAX): is x in the domain? A failed step whose Euler point is not has
+        # RESULTS.left_domain (a stop, not a failure of the method)
+        self.inside: Callable[[Any], Any] | None = None
 
         comps = self.components
 
@@ -502,7 +505,11 @@ class Field:
 
             def _comp(i):
                 def ai(x1, x2, x3):
-                    return a(jnp.stack(jnp.broadcast_arrays(x1, x2, x3)).astype(float))[i]
+                    X = jnp.stack(jnp.broadcast_arrays(x1, x2, x3)).astype(float)
+                    if X.ndim == 1:
+                        return a(X)[i]
+                    # batched coordinates: a maps one point (3,) → (3,), so map it over the points
+                    return jax.vmap(a)(X.reshape(3, -1).T)[:, i].reshape(X.shape[1:])
 
                 ai.__name__ = f"a{i + 1}"
                 return ai

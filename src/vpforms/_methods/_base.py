@@ -95,10 +95,18 @@ class Method(ABC):
         not finite, ``inconsistent`` where the guard of :mod:`vpforms._guard` fails."""
         bad = ~jnp.all(jnp.isfinite(X), axis=-1)
         status = jnp.where((status == RESULTS.successful) & bad, RESULTS.nonfinite, status)
-        if self.field is None or self.guard_kappa is None:
+        if self.field is None:
+            return status.astype(jnp.int32)
+        inside = getattr(self.field, "inside", None)
+        if self.guard_kappa is None and inside is None:
             return status.astype(jnp.int32)
         euler = jax.vmap(lambda p: self.euler_guess(p, h))(x)
-        return guard_status(x, X, euler, status, self.guard_kappa)
+        if self.guard_kappa is not None:
+            status = guard_status(x, X, euler, status, self.guard_kappa)
+        if inside is not None:  # a failed step whose Euler point is off the grid left the domain
+            out = ~jax.vmap(inside)(euler) | ~jnp.all(jnp.isfinite(euler), axis=-1)
+            status = jnp.where((status != RESULTS.successful) & out, RESULTS.left_domain, status)
+        return status.astype(jnp.int32)
 
     #: the pair of potentials the recipe steps with ("se" or "dl"; None: it uses no potentials)
     splitting: str | None = None

@@ -76,6 +76,9 @@ def _build(field, pi: Perm) -> Field:
     check = getattr(field, "domain_check", None)
     if check is not None:  # a point x of ã is the point x·π⁻¹ of a
         out.domain_check = lambda pts: check(np.asarray(pts, float)[..., inv])
+    inside = getattr(field, "inside", None)
+    if inside is not None:
+        out.inside = lambda x: inside(x[jnp.asarray(inv)])
     return out
 
 

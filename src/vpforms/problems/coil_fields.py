@@ -85,7 +85,7 @@ def make_stellarator(*, n_R: int = 40, n_phi: int = 32, n_Z: int = 40, R: tuple 
     pot, _ = cylindrical_potential(Rn, phin, Zn, nfp=nfp, A=_sample_A(coils, Rn, phin, Zn),
                                    source="l2_stellarator coils")
     field = toroidal_field(pot, pot.grid_box, nfp=nfp, name="coil_stellarator", origin=pot.center)
-    field.domain_check = _covers(pot)
+    field.domain_check, field.inside = _covers(pot), pot.inside
     err = _spline_error(field, coils, None, (R[0] + 0.02, R[1] - 0.02), (Z[0] + 0.02, Z[1] - 0.02), nfp)
     return Problem(
         name="coil_stellarator", field=field,
@@ -118,7 +118,7 @@ def make_tokamak(*, n_R: int = 48, n_phi: int = 12, n_Z: int = 48, R: tuple = (0
                                    source="circular_tokamak TF coils")
     A = SumPotential([pot, exact_ring], periods=pot.periods)
     field = toroidal_field(A, pot.grid_box, nfp=nfp, name="coil_tokamak", origin=pot.center)
-    field.domain_check = _covers(pot)
+    field.domain_check, field.inside = _covers(pot), pot.inside
     err = _spline_error(field, rest, _ring_B(exact_ring), (0.7, 1.3), (-0.3, 0.3), nfp)
     return Problem(
         name="coil_tokamak", field=field,

@@ -9,7 +9,9 @@ adjunction leave it unchanged, see :meth:`MapStage.relabel`).
 :func:`class_stage` builds it for the representative methods whose potentials are symbolic:
 
 * SE+SE (eq:case5): φ = y₂Y₃ + hF¹(y₃, y₂, Y₃), Φ = y₃Y₂ + hF³(y₃, Y₂, Y₃) from the field's
-  closed-form SE potentials (``Field.se_potential_exprs``);
+  SE potentials: closed form (``Field.se_potential_exprs``) or Gauss–Legendre quadrature of its
+  components as :class:`~vpforms._quadrature.GLSum` expressions (:func:`potential_pair`), which
+  the emitter turns into loops over the nodes;
 * S1, S2 on linear fields: the SymPy recipes of :mod:`vpforms.symbolic.recipes` (the ones the JAX
   methods lambdify) with the matrix entries substituted;
 
@@ -27,11 +29,13 @@ from typing import Any
 import sympy as sp
 
 from ...._case import Case
+from ...._quadrature import line_integral_expr
 from ....symbolic import _symbols as G
 from ....symbolic.recipes import flip_generic
+from .cprinter import c_unsupported
 
 __all__ = ["CORR_S", "DL_QPC", "CorrectionStage", "DLStage", "MapStage", "RK4Stage", "ThetaStage",
-           "class_stage", "symbolic_reason"]
+           "class_stage", "potential_pair", "symbolic_reason"]
 
 
 @dataclass(frozen=True)
@@ -52,7 +56,7 @@ class MapStage:
     newton: tuple[float, int, float]  # (tol, max_iter, twist_tol)
     field_exprs: tuple  # a(x) in G.x: the Euler guess is x + h a(x)
 
-    def relabel(self, pi) -> "MapStage":
+    def relabel(self, pi) -> MapStage:
         """(π, π)·map = (π∘σ, π∘Σ)·f (prop:permactalg); the guess x + h a(x) in the original
         coordinates: a_i(x) = ã_{π⁻¹(i)}(x·π) for the relabelled field ã the base was built on."""
         idx, inv = pi.index, pi.inverse().index
@@ -60,7 +64,7 @@ class MapStage:
         a = tuple(sp.sympify(self.field_exprs[inv[i]]).xreplace(sub) for i in range(3))
         return replace(self, case=self.case.relabel(pi), field_exprs=a)
 
-    def adjoint(self) -> "MapStage":
+    def adjoint(self) -> MapStage:
         """The map of Ψ*_h = (Ψ_{−h})⁻¹: the inverse (prop:permactvolpotinv: (Σ, σ)·f_{Φ·p, φ·p},
         same sign) of the map at −h. The Euler guess x + h a(x) of the adjoint is unchanged."""
         phi, Phi = (sp.sympify(e).xreplace({G.h: -G.h}) for e in (self.phi, self.Phi))
@@ -82,11 +86,11 @@ class CorrectionStage:
     hsign: int = 1
     pi: Any = None  # conjugation π (None: identity)
 
-    def relabel(self, pi) -> "CorrectionStage":
+    def relabel(self, pi) -> CorrectionStage:
         """(π, π)·Ψ: X = Ψ((x·π)·ρ)·ρ⁻¹·π⁻¹ = Ψ(x·(π∘ρ))·(π∘ρ)⁻¹ for the stage's own ρ."""
         return replace(self, pi=pi if self.pi is None else pi * self.pi)
 
-    def adjoint(self) -> "CorrectionStage":
+    def adjoint(self) -> CorrectionStage:
         """Ψ*_h = (Ψ_{−h})⁻¹ (the conjugation stays)."""
         return replace(self, inverse=not self.inverse, hsign=-self.hsign)
 
@@ -117,25 +121,65 @@ class DLStage:
 
     stages: tuple[ThetaStage, ...]
 
-    def relabel(self, pi) -> "DLStage":
+    def relabel(self, pi) -> DLStage:
         """X = Ψ(x·π)·π⁻¹: a stage acting on (x·π)_q = x_{π(q)} acts on x_{π(q)}."""
         idx = pi.index
         return DLStage(tuple(replace(s, idx=tuple(idx[i] for i in s.idx)) for s in self.stages))
 
-    def adjoint(self) -> "DLStage":
+    def adjoint(self) -> DLStage:
         """Ψ*_h = (Ψ_{−h})⁻¹: the inverse of a θ-stage at −h is the (1−θ)-stage at h, so the
         stages in reverse order with θ → 1 − θ (``DLPredictor._stages_inverse``)."""
         return DLStage(tuple(replace(s, theta=1.0 - s.theta) for s in reversed(self.stages)))
 
 
 def symbolic_reason(field: Any) -> str | None:
-    """None if ``field`` has SymPy expressions without free parameters, else why not."""
+    """None if ``field`` has SymPy expressions without free parameters that C can evaluate, else
+    why not."""
     if getattr(field, "exprs", None) is None or getattr(field, "symbols", None) is None:
         return "field was given as a JAX callable; build it with Field.from_sympy"
     free = set().union(*(sp.sympify(e).free_symbols for e in field.exprs))
     if not free <= set(field.symbols):
         return f"field has unsubstituted parameters {sorted(map(str, free - set(field.symbols)))}"
+    bad = c_unsupported(*field.exprs)
+    if bad:
+        return f"field uses {', '.join(bad)}, which C (math.h) has no implementation of"
     return None
+
+
+def potential_pair(field: Any, splitting: str) -> tuple[sp.Expr, sp.Expr] | str:
+    """The ``splitting`` ("se" or "dl") potentials of ``field`` as SymPy expressions in x1, x2, x3,
+    as the JAX methods evaluate them, or why there are none:
+
+    * closed-form or user-supplied potentials: their expressions;
+    * quadrature potentials of the field's own components (MATH.md §3,
+      :func:`vpforms._potentials._quadrature_potentials`): the same formulas with the n-point rule
+      as :class:`~vpforms._quadrature.GLSum` (:func:`~vpforms._quadrature.line_integral_expr`),
+      whose derivatives are the derivatives ``jax.grad`` takes of the JAX quadrature;
+    * anything else (a gauge integral of supplied vector potentials by quadrature): the reason."""
+    from ...._potentials import _quadrature_potentials
+
+    _, exprs, how = field._get(splitting)
+    if exprs is not None:
+        pair = _to_x(field, exprs)
+    elif how == f"quadrature(n={field.quadrature_n})" and not field._vector_potentials:
+        a = _to_x(field, field.exprs)
+
+        def comp(e):  # a_i as a function of SymPy arguments
+            return lambda y1, y2, y3: e.xreplace(dict(zip(G.x, (y1, y2, y3))))
+
+        # the base point as JAX has it (float); 0 exactly, so that s = c + (x − c)t stays x·t
+        c = tuple(sp.Integer(0) if v == 0 else sp.Float(v, 17) for v in field.origin)
+        P, Q = _quadrature_potentials(tuple(comp(e) for e in a), splitting, c,
+                                      field.quadrature_n, integral=line_integral_expr)
+        pair = (P(*G.x), Q(*G.x))
+    else:
+        return f"{splitting.upper()} potentials are {how}; native generates closed forms and " \
+               "quadratures of the field's own components only"
+    bad = c_unsupported(*pair)
+    if bad:
+        return (f"the {splitting.upper()} potentials use {', '.join(bad)}, which C (math.h) has no "
+                "implementation of")
+    return pair
 
 
 def _to_x(field, exprs):
@@ -172,9 +216,10 @@ def class_stage(m: Any) -> MapStage | str:
     if isinstance(m, QuispelCorrection):
         return _correction_stage(m, a)
     if isinstance(m, SESE):
-        if field.se_potential_exprs is None:
-            return "SE potentials have no closed form (quadrature); native needs symbolic potentials"
-        F1, F3 = _to_x(field, field.se_potential_exprs)
+        pair = potential_pair(field, "se")
+        if isinstance(pair, str):
+            return f"{name}: {pair}"
+        F1, F3 = pair
         Y3, Y2, y2, y3, h = G.Y[2], G.Y[1], G.y[1], G.y[2], G.h
         # generic arguments (MATH.md §2): φ(Y₃, y₂, y₃) = φ(X₃, x₂, x₁), Φ(Y₃, Y₂, y₃) = Φ(X₃, X₂, x₁)
         phi = y2 * Y3 + h * F1.xreplace({G.x[0]: y3, G.x[1]: y2, G.x[2]: Y3})
@@ -202,6 +247,9 @@ def _correction_stage(m, a) -> CorrectionStage | str:
     W, (s, h) = found
     i, _, k = m.roles
     W = _to_x(m.field, [W])[0].xreplace({s: CORR_S, h: G.h})
+    bad = c_unsupported(W)
+    if bad:
+        return f"{m.name}: the correction uses {', '.join(bad)}, which C (math.h) has no implementation of"
     extra = W.free_symbols - {G.x[i], G.x[k], CORR_S, G.h}
     if extra:
         return f"{m.name}: correction has unsubstituted parameters {sorted(map(str, extra))}"
@@ -213,10 +261,10 @@ def _dl_stage(m) -> DLStage | str:
     (x₁, x₃) with x₂ frozen (θ₂ = θ for DL+DL, 0 for SE+DL), as ``DLPredictor._init_predictor``."""
     from ...._methods.dl_dl import DLDL
 
-    pots = m.field.dl_potential_exprs
-    if pots is None:
-        return f"{m.name}: DL potentials have no closed form (quadrature); native needs them symbolic"
-    G1, G2 = _to_x(m.field, pots)
+    pair = potential_pair(m.field, "dl")
+    if isinstance(pair, str):
+        return f"{m.name}: {pair}"
+    G1, G2 = pair
     q, p, c = DL_QPC
     H1 = G1.xreplace({G.x[0]: c, G.x[1]: q, G.x[2]: p})
     H2 = -G2.xreplace({G.x[0]: q, G.x[1]: c, G.x[2]: p})
