@@ -14,6 +14,8 @@ from collections.abc import Mapping
 import numpy as np
 import sympy as sp
 
+from ._fieldops import _lambdify_numpy
+
 __all__ = ["alias_coordinates", "constant_jacobian"]
 
 
@@ -78,7 +80,7 @@ def _numeric_jac_scale(exprs, symbols, pts) -> float:
     m = 0.0
     for e in exprs:
         for s in symbols:
-            f = sp.lambdify(symbols, sp.diff(e, s), modules="numpy")
+            f = _lambdify_numpy(symbols, sp.diff(e, s))
             v = np.broadcast_to(np.asarray(f(*pts.T), dtype=float), (len(pts),))
             if np.all(np.isfinite(v)):
                 m = max(m, float(np.max(np.abs(v))))

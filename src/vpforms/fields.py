@@ -68,6 +68,7 @@ from ._fieldops import (  # noqa: F401  (re-exported: the public names and the h
     _div_error,
     _float_scale,
     _fmt_pt,
+    _lambdify_numpy,
     _lambdify_scalar,
     _numeric_max,
     _symbolic_zero,
@@ -394,7 +395,7 @@ class Field:
             how = "symbolic"
         else:
             pts = sample_box(box, 512, 0)
-            f = sp.lambdify(symbols, div, modules="numpy")
+            f = _lambdify_numpy(symbols, div)
             vals = np.broadcast_to(np.asarray(f(*pts.T), dtype=float), (len(pts),))
             jac_scale = _numeric_jac_scale(exprs, symbols, pts)
             i = int(np.nanargmax(np.abs(vals))) if np.all(np.isfinite(vals)) else int(

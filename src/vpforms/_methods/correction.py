@@ -36,6 +36,7 @@ import jax
 import jax.numpy as jnp
 import sympy as sp
 
+from .._fieldops import _lambdify_with
 from .._newton import newton_scalar
 from .._quadrature import DEFAULT_N, line_integral
 from ._base import GeneratingMethod, Method, merge_status
@@ -228,7 +229,7 @@ def _closed_form_correction(field, roles):
     W, (s, h) = found
     i, j, k = roles
     sym = field.symbols
-    f = sp.lambdify((sym[i], s, sym[k], h), W, modules="jax")
+    f = _lambdify_with((sym[i], s, sym[k], h), W, "jax")
 
     def Wfun(vi, vs, vk, vh):
         return jnp.asarray(f(vi, vs, vk, vh), float) + 0.0 * vs
