@@ -99,11 +99,12 @@ def _one_step_flow(field, x, h):
                                rtol=1e-13, atol=1e-14).y[:, -1] for xi in x])
 
 
-@pytest.mark.slow  # ~100 s per case: the quadrature gauge of a Cartesian A compiles slowly
+@pytest.mark.slow  # ~100 s, 1.8 GB: the quadrature gauge of a Cartesian A compiles slowly
 @pytest.mark.parametrize("case", [
     "SE+SE",  # its SE gauge integrates A_φ along φ: the potentials grow with the turns taken
-    vpforms.Case((1, 3, 2), (2, 1, 3)),  # a relabelled SE+DL case
-    "DL+DL",
+    # The DL classes (even by their θ-stages, fast=True) compile to > 15 GB on this quadrature-gauge
+    # field (measured: two such tests on two workers ran CI out of memory); they are tested on the
+    # spline fields, whose gauge is exact (tests/test_real_fields.py).
 ])
 def test_generating_form_steps_on_a_toroidal_field(field, case):
     """Exactly volume preserving (|det J − 1| ≤ 1e-12), consistent (one-step error ∝ h², checked by
