@@ -118,3 +118,18 @@ def pytest_collection_modifyitems(config, items):
             item.add_marker(pytest.mark.verification)
         elif _VERIFICATION.fullmatch(nodeid) and not _KEEP_FAST.fullmatch(nodeid):
             item.add_marker(pytest.mark.verification)
+
+
+@pytest.fixture(scope="module")
+def isolated_native_cache(tmp_path_factory):
+    """A fresh native kernel cache (VPFORMS_NATIVE_CACHE) for one test module, restored after."""
+    import os
+
+    d = tmp_path_factory.mktemp("native_cache")
+    old = os.environ.get("VPFORMS_NATIVE_CACHE")
+    os.environ["VPFORMS_NATIVE_CACHE"] = str(d)
+    yield d
+    if old is None:
+        os.environ.pop("VPFORMS_NATIVE_CACHE", None)
+    else:
+        os.environ["VPFORMS_NATIVE_CACHE"] = old

@@ -29,15 +29,8 @@ pytestmark = pytest.mark.skipif(not _OK, reason=f"native backend unavailable: {_
 
 
 @pytest.fixture(scope="module", autouse=True)
-def _cache(tmp_path_factory):
-    d = tmp_path_factory.mktemp("native_cache")
-    old = os.environ.get("VPFORMS_NATIVE_CACHE")
-    os.environ["VPFORMS_NATIVE_CACHE"] = str(d)
-    yield d
-    if old is None:
-        os.environ.pop("VPFORMS_NATIVE_CACHE", None)
-    else:
-        os.environ["VPFORMS_NATIVE_CACHE"] = old
+def _cache(isolated_native_cache):
+    return isolated_native_cache
 
 
 @pytest.fixture(scope="module")

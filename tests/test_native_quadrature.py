@@ -10,7 +10,6 @@ One tmp cache directory per module (env ``VPFORMS_NATIVE_CACHE``); each kernel c
 
 from __future__ import annotations
 
-import os
 import re
 
 import jax
@@ -35,15 +34,8 @@ x1, x2, x3 = SYMBOLS
 
 
 @pytest.fixture(scope="module", autouse=True)
-def _cache(tmp_path_factory):
-    d = tmp_path_factory.mktemp("native_cache")
-    old = os.environ.get("VPFORMS_NATIVE_CACHE")
-    os.environ["VPFORMS_NATIVE_CACHE"] = str(d)
-    yield d
-    if old is None:
-        os.environ.pop("VPFORMS_NATIVE_CACHE", None)
-    else:
-        os.environ["VPFORMS_NATIVE_CACHE"] = old
+def _cache(isolated_native_cache):
+    return isolated_native_cache
 
 
 def _curl(A):
