@@ -17,6 +17,7 @@ from .._errors import RESULTS
 from .._integrate import _Bar, _check_run, _StepFn, auto_chunk_size
 from .._recovery import bare_first
 from ._common import _chunks, _pad
+from ._surfaces import Plane
 
 __all__ = ["PoincareSection", "poincare_section"]
 
@@ -59,12 +60,18 @@ class PoincareSection:
 
     @property
     def plane_axes(self) -> tuple[int, int]:
-        """The two in-plane coordinates (0-based), in increasing order."""
+        """The two in-plane coordinates (0-based), in increasing order (for the half-planes
+        φ = const of Cartesian points, ``axis`` = −1: (R, x₃) are the in-plane coordinates)."""
+        if self.axis == -1:
+            return 0, 2
         a, b = [i for i in range(3) if i != self.axis]
         return a, b
 
     def coordinates(self, wrap: bool | None = None) -> np.ndarray:
-        """(M, 2) in-plane coordinates; reduced to [0, period) when wrap (default: period given)."""
+        """(M, 2) in-plane coordinates; reduced to [0, period) when wrap (default: period given).
+        For the half-planes φ = const of Cartesian points (``axis`` = −1): (R, x₃), never wrapped."""
+        if self.axis == -1:
+            return np.column_stack([np.hypot(self.points[:, 0], self.points[:, 1]), self.points[:, 2]])
         a, b = self.plane_axes
         uv = self.points[:, [a, b]]
         if (self.period is not None) if wrap is None else wrap:
@@ -86,10 +93,10 @@ def _levels(s, P):
     return jnp.floor(s / P) if P is not None else (s >= 0).astype(jnp.float64)
 
 
-@partial(jax.jit, static_argnums=(0, 1, 2, 3, 4, 5))
-def _poincare_scan(step_fn, n_steps, K, axis, direction, P, x, st, count, bx, bn, bl, n0, h, value, n_stop):
+@partial(jax.jit, static_argnums=(0, 1, 2, 3, 4))
+def _poincare_scan(step_fn, n_steps, K, surface, direction, x, st, count, bx, bn, bl, n0, h, n_stop):
     """Scan n_steps steps from step n0 (steps ≥ n_stop skipped); record x_n, n and the crossed
-    level for each particle's first K crossings."""
+    level of the ``surface`` (:mod:`._surfaces`) for each particle's first K crossings."""
 
     def one(x, st, count, bx, bn, bl):
         def body(carry, j):
@@ -103,12 +110,8 @@ def _poincare_scan(step_fn, n_steps, K, axis, direction, P, x, st, count, bx, bn
             alive = st == RESULTS.successful
             good = alive & (s == RESULTS.successful)
             st = jnp.where(alive & ~good, s, st)
-            m0 = _levels(x[axis] - value, P)
-            m1 = _levels(X[axis] - value, P)
-            up, down = (m1 > m0), (m1 < m0)
+            up, down, lvl = surface.crossing(x, X)
             cross = good & (up if direction > 0 else down if direction < 0 else up | down)
-            # crossed level: value + m1·P going up, value + m0·P going down (one per step)
-            lvl = value + (0.0 if P is None else P) * jnp.where(up, m1, m0)
             i = jnp.minimum(count, K - 1)
             w = cross & (count < K)
             bx = bx.at[i].set(jnp.where(w, x, bx[i]))
@@ -125,21 +128,22 @@ def _poincare_scan(step_fn, n_steps, K, axis, direction, P, x, st, count, bx, bn
 
 
 @partial(jax.jit, static_argnums=(0, 1, 2))
-def _refine_kernel(step_fn, axis, mode, x, lvl, h):
-    """Locate θ ∈ [0, 1] with (Ψ_{θh}(x))_axis = lvl by Illinois regula falsi; return (X, θ, fallback)
-    (fallback: the step family failed and the chord point is returned)."""
+def _refine_kernel(step_fn, surface, mode, x, lvl, h):
+    """Locate θ ∈ [0, 1] with gap(Ψ_{θh}(x), lvl) = 0 (the crossed level of ``surface``) by Illinois
+    regula falsi; return (X, θ, fallback) (fallback: the step family failed, the chord point is
+    returned)."""
 
     def one(x, lvl):
         X1, _ = step_fn(x, h)
-        g0 = x[axis] - lvl
-        g1 = X1[axis] - lvl
+        g0 = surface.gap(x, lvl)
+        g1 = surface.gap(X1, lvl)
         th_lin = g0 / (g0 - g1)
         if mode == "linear":  # chord of the step: O(h²) accurate
             return x + th_lin * (X1 - x), th_lin, jnp.bool_(False)
 
         def g(th):
             Y, s = step_fn(x, th * h)
-            return Y[axis] - lvl, Y, s
+            return surface.gap(Y, lvl), Y, s
 
         tol = 1e-15 * (1.0 + jnp.abs(lvl))
 
@@ -163,7 +167,7 @@ def _refine_kernel(step_fn, axis, mode, x, lvl, h):
         _, Y, s = g(th)
         ok = (s == RESULTS.successful) & jnp.all(jnp.isfinite(Y))
         Y = jnp.where(ok, Y, x + th_lin * (X1 - x))
-        return Y.at[axis].set(jnp.where(ok, lvl, Y[axis])), jnp.where(ok, th, th_lin), ~ok
+        return jnp.where(ok, surface.snap(Y, lvl), Y), jnp.where(ok, th, th_lin), ~ok
 
     return jax.vmap(one)(x, lvl)
 
@@ -233,6 +237,16 @@ def poincare_section(
     pts, _, h, n_steps = _check_run(method, x0, h, n_steps, t0)
     if not math.isfinite(float(value)):
         raise ValueError(f"value must be a finite number, got {value}")
+    surface = Plane(axis, float(value), None if period is None else float(period))
+    return _section_on(method, pts, h, n_steps, surface, direction, max_crossings, interpolation, t0,
+                       chunk_size, progress, "Poincaré section",
+                       dict(axis=axis, value=float(value), period=surface.period))
+
+
+def _section_on(method, pts, h, n_steps, surface, direction, max_crossings, interpolation, t0, chunk_size,
+                progress, label, meta) -> PoincareSection:
+    """The crossings of ``surface`` (:mod:`._surfaces`) by the orbits of pts (validated), as a
+    :class:`PoincareSection` carrying ``meta`` (axis, value, period)."""
     N = pts.shape[0]
     # segments of ≤ 1024 steps (≥ ~20 per chunk for a live bar); the crossing buffers are emptied
     # to the host after every segment, so memory does not grow with n_steps
@@ -242,17 +256,16 @@ def poincare_section(
     if cap is not None and cap < 0:
         raise ValueError(f"max_crossings must be ≥ 0, got {max_crossings}")
     C = min(N, chunk_size or auto_chunk_size(N, 2 * K))
-    P = None if period is None else float(period)
 
     def trace(m):  # the section traced with the step of m (method's labels)
         fn = _StepFn(m)
-        hj, vj = jnp.asarray(float(h)), jnp.asarray(float(value))
+        hj = jnp.asarray(float(h))
 
         cx, cn, cl, cp = [], [], [], []
         counts = np.zeros(N, dtype=np.int64)  # every detected crossing
         kept = np.zeros(N, dtype=np.int64)  # the recorded ones
         status = np.zeros(N, dtype=np.int32)
-        bar = _Bar(progress, N * n_steps, "Poincaré section")
+        bar = _Bar(progress, N * n_steps, label)
         try:
             for lo, hi in _chunks(N, C):
                 x = jnp.asarray(_pad(pts[lo:hi], C))
@@ -264,7 +277,7 @@ def poincare_section(
                 while done < n_steps:
                     # fixed-length segments (one compilation); steps past n_steps are skipped
                     x, st, cnt, bx, bn, bl = _poincare_scan(
-                        fn, seg, K, axis, direction, P, x, st, zero, bx, bn, bl, jnp.asarray(done), hj, vj,
+                        fn, seg, K, surface, direction, x, st, zero, bx, bn, bl, jnp.asarray(done), hj,
                         jnp.asarray(n_steps),
                     )
                     L = min(seg, n_steps - done)
@@ -295,7 +308,7 @@ def poincare_section(
         R = min(1 << max(M - 1, 1).bit_length(), 2**14)  # power-of-two buckets: few compilations
         for lo, hi in _chunks(M, R):
             Y, th, fb = _refine_kernel(
-                fn, axis, interpolation, jnp.asarray(_pad(xs[lo:hi], R)), jnp.asarray(_pad(ls[lo:hi, None], R)[:, 0]), hj
+                fn, surface, interpolation, jnp.asarray(_pad(xs[lo:hi], R)), jnp.asarray(_pad(ls[lo:hi, None], R)[:, 0]), hj
             )
             pts_out[lo:hi] = np.asarray(Y)[: hi - lo]
             thetas[lo:hi] = np.asarray(th)[: hi - lo]
@@ -311,10 +324,8 @@ def poincare_section(
             t=t0 + (ns[order] + thetas[order]) * float(h),
             counts=counts,
             dropped=int(np.sum(counts - kept)),
-            axis=axis,
-            value=float(value),
             direction=direction,
-            period=P,
+            **meta,
             interpolation=interpolation,
             interpolation_order=_interp_order(method, interpolation),
             method=describe(method),

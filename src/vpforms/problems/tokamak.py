@@ -42,7 +42,7 @@ import sympy as sp
 from ..fields import SYMBOLS, Field
 from ._base import Problem, invariant_callables, real_param
 
-__all__ = ["make", "default", "DEFAULTS", "flux_function", "safety_factor"]
+__all__ = ["make", "default", "DEFAULTS", "flux_function", "safety_factor", "toroidal_exprs"]
 
 DEFAULTS = {"R0": sp.Integer(1), "B0": sp.Rational(9, 5), "eps": sp.Rational(1, 100), "m": 2, "n": 1}
 SOURCE = (
@@ -94,8 +94,32 @@ def exprs(R0, B0, eps, m, n, symbols=SYMBOLS):
     return tuple(sp.expand(p + t + eps * c) for p, t, c in zip(Bpol, Btor, curlA))
 
 
-def make(R0=None, B0=None, eps=None, m=None, n=None) -> Problem:
-    """The field-line model; see the module docstring for the parameters."""
+#: the toroidal coordinates of unit Jacobian of :mod:`vpforms.toroidal`: u = R²/2, φ, Z
+TOROIDAL_SYMBOLS = (sp.Symbol("u", positive=True), sp.Symbol("phi", real=True), sp.Symbol("Z", real=True))
+
+
+def toroidal_exprs(cartesian, symbols=SYMBOLS, toroidal_symbols=TOROIDAL_SYMBOLS):
+    """The flow (a¹, a², a³) = (R B_R, B_φ/R, B_Z) in (u = R²/2, φ, Z) of a Cartesian field B
+    (:mod:`vpforms.toroidal`: Jacobian 1, so div stays div). For this model with ε = 0 it is the
+    polynomial (−2uZ, B₀/R₀, u − R₀²/2 + Z²)."""
+    x1, x2, x3 = symbols
+    u, ph, Z = toroidal_symbols
+    R = sp.sqrt(2 * u)
+    sub = {x1: R * sp.cos(ph), x2: R * sp.sin(ph), x3: Z}
+    B1, B2, B3 = (b.subs(sub) for b in cartesian)
+    a1 = R * sp.cos(ph) * B1 + R * sp.sin(ph) * B2
+    a2 = (R * sp.cos(ph) * B2 - R * sp.sin(ph) * B1) / (2 * u)
+    return tuple(sp.simplify(sp.expand(a)) for a in (a1, a2, B3))
+
+
+def make(R0=None, B0=None, eps=None, m=None, n=None, coordinates: str = "cartesian") -> Problem:
+    """The field-line model; see the module docstring for the parameters.
+
+    ``coordinates="toroidal"`` gives the same field lines in the coordinates (u = R²/2, φ, Z) of unit
+    Jacobian (:mod:`vpforms.toroidal`), where the magnetic axis of ε = 0 is the line u = R₀²/2,
+    Z = 0 and the field there (0, B₀/R₀, 0) is a translation in φ that every method steps exactly."""
+    if coordinates not in ("cartesian", "toroidal"):
+        raise ValueError(f"coordinates must be 'cartesian' or 'toroidal'; got {coordinates!r}")
     p = dict(DEFAULTS)
     p.update({k: v for k, v in dict(R0=R0, B0=B0, eps=eps, m=m, n=n).items() if v is not None})
     R0, B0, eps = (real_param(k, p[k]) for k in ("R0", "B0", "eps"))
@@ -108,20 +132,34 @@ def make(R0=None, B0=None, eps=None, m=None, n=None) -> Problem:
     if not R0 > 0:
         raise ValueError(f"R0 must be positive; got {R0}")
     r0 = float(R0)
-    box = ((-1.5 * r0, 1.5 * r0), (-1.5 * r0, 1.5 * r0), (-0.75 * r0, 0.75 * r0))
-    field = Field.from_sympy(exprs(R0, B0, eps, int(m), int(n)), SYMBOLS, name="tokamak", box=box)
+    toroidal = coordinates == "toroidal"
+    cart = exprs(R0, B0, eps, int(m), int(n))
     inv = {}
-    if eps == 0:
-        x1, x2, x3 = SYMBOLS
-        inv["psi"] = flux_function(R0)
+    if toroidal:
+        box = ((0.5 * (0.5 * r0) ** 2, 0.5 * (1.5 * r0) ** 2), (0.0, 2 * np.pi), (-0.75 * r0, 0.75 * r0))
+        field = Field.from_sympy(toroidal_exprs(cart), TOROIDAL_SYMBOLS, name="tokamak (u, φ, Z)", box=box)
+        field.coordinates = "toroidal (u = R²/2, φ, Z)"
+        field.periods = (None, 2 * np.pi, None)
+        if eps == 0:
+            u, _, Z = TOROIDAL_SYMBOLS
+            inv["psi"] = (2 * u - R0**2) ** 2 / 8 + u * Z**2  # ψ of flux_function with R² = 2u
+    else:
+        box = ((-1.5 * r0, 1.5 * r0), (-1.5 * r0, 1.5 * r0), (-0.75 * r0, 0.75 * r0))
+        field = Field.from_sympy(cart, SYMBOLS, name="tokamak", box=box)
+        if eps == 0:
+            inv["psi"] = flux_function(R0)
     rho = np.array([0.1, 0.2, 0.25, 0.3, 0.35]) * r0
     x0 = np.stack([r0 + rho, np.zeros_like(rho), np.zeros_like(rho)], axis=1)
+    if toroidal:
+        x0[:, 0] = 0.5 * x0[:, 0] ** 2
 
     def sampler(rng, k):  # inside the flux surfaces: ρ ≤ 0.35 R₀ around the magnetic axis
         rr = 0.35 * r0 * np.sqrt(rng.random(k))
         th = 2 * np.pi * rng.random(k)
         ph = 2 * np.pi * rng.random(k)
         R = r0 + rr * np.cos(th)
+        if toroidal:
+            return np.stack([0.5 * R * R, ph, rr * np.sin(th)], axis=1)
         return np.stack([R * np.cos(ph), R * np.sin(ph), rr * np.sin(th)], axis=1)
 
     params = {"R0": r0, "B0": float(B0), "eps": float(eps), "m": int(m), "n": int(n)}
@@ -130,10 +168,10 @@ def make(R0=None, B0=None, eps=None, m=None, n=None) -> Problem:
         field=field,
         params=params,
         x0=x0,
-        invariants=invariant_callables(inv),
+        invariants=invariant_callables(inv, TOROIDAL_SYMBOLS if toroidal else SYMBOLS),
         invariant_exprs=inv,
         source=SOURCE,
-        periodic=None,
+        periodic=field.periods if toroidal else None,
         box=box,
         description=f"toroidal field-line model with ({m},{n}) islands",
         sampler=sampler,

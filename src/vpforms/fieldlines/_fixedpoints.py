@@ -1,0 +1,254 @@
+"""Magnetic axis and island chains: fixed points of the φ-return map P and of Pᵐ (issue #21, item 2).
+
+A fixed point z* = Pᵐ(z*) is found by Newton's method on F(z) = Pᵐ(z) − z with the exact Jacobian
+DPᵐ of the discrete map (forward-mode AD through the steps, :mod:`._returnmap`), with step halving
+when the residual grows. Its type comes from the tangent map M = DPᵐ(z*) (det M = 1 at a fixed
+point of an area-preserving map, in any coordinates): Greene's residue
+
+    Res = (2 − tr M)/4:   0 < Res < 1 elliptic (O-point),  Res < 0 or Res > 1 hyperbolic (X-point),
+
+and for an elliptic point the rotation number ν per m periods, cos 2πν = tr M / 2.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field as dc_field
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .._errors import RESULTS, ConvergenceError
+from ..diagnostics._surfaces import wrap_angle
+from ._returnmap import ReturnMap, return_map, status_message
+
+__all__ = ["FixedPoint", "find_fixed_point", "magnetic_axis", "island_chain", "scan_fixed_points"]
+
+
+@dataclass(frozen=True)
+class FixedPoint:
+    """A fixed point (R, Z) of Pᵐ on the section φ = φ₀ (module docstring).
+
+    ``m`` the period (1: the magnetic axis); ``residual`` |Pᵐ(z) − z| at the returned point;
+    ``iterations`` of Newton; ``jacobian`` DPᵐ (2×2); ``trace``, ``det``; ``residue`` Greene's;
+    ``kind`` "O" (elliptic), "X" (hyperbolic) or "parabolic"; ``orbit`` (m, 2) the chain
+    z, P(z), …, Pᵐ⁻¹(z); ``iota`` the rotational transform of the linearised motion about the point,
+    per toroidal turn (the axis's ι: elliptic points of m = 1 only; NaN otherwise).
+    """
+
+    R: float
+    Z: float
+    m: int
+    residual: float
+    iterations: int
+    jacobian: np.ndarray
+    residue: float
+    kind: str
+    orbit: np.ndarray
+    phi0: float
+    nfp: int
+    iota: float = math.nan
+    notes: tuple = dc_field(default_factory=tuple)
+
+    @property
+    def trace(self) -> float:
+        return float(np.trace(self.jacobian))
+
+    @property
+    def det(self) -> float:
+        return float(np.linalg.det(self.jacobian))
+
+    @property
+    def q(self) -> float:
+        """1/ι (the safety factor of the axis)."""
+        return 1.0 / self.iota if self.iota else math.inf
+
+
+def _kind(res: float) -> str:
+    if 0.0 < res < 1.0:
+        return "O"
+    if res < 0.0 or res > 1.0:
+        return "X"
+    return "parabolic"
+
+
+def _value_and_jac(P: ReturnMap, m: int):
+    key = ("vj", m)
+    cache = P.__dict__.setdefault("_jit_cache", {})
+    if key not in cache:
+        def both(z):  # Pᵐ(z), its status and DPᵐ(z) (exact, forward mode)
+            z2, st = P.power(z, m)
+            J = jax.jacfwd(lambda y: P.power(y, m)[0])(z)
+            return z2, st, J
+
+        cache[key] = jax.jit(both)
+    return cache[key]
+
+
+def find_fixed_point(P: ReturnMap, guess: Any, m: int = 1, *, tol: float = 1e-12, max_iter: int = 30) -> FixedPoint:
+    """Newton's method for Pᵐ(z) = z from ``guess`` = (R, Z) (module docstring).
+
+    Converged when |Pᵐ(z) − z| ≤ tol·(1 + |z|). Raises :class:`~vpforms.ConvergenceError` (one line,
+    with the last residual) when Newton does not converge, and ``RuntimeError`` when the map itself
+    fails (a line that does not return, a failed step)."""
+    if isinstance(m, bool) or int(m) != m or int(m) < 1:
+        raise ValueError(f"m must be a positive integer; got {m!r}")
+    m = int(m)
+    z = np.asarray(guess, float).reshape(-1)
+    if z.shape != (2,) or not np.all(np.isfinite(z)):
+        raise ValueError(f"guess must be a finite (R, Z) pair; got {guess!r}")
+    vj = _value_and_jac(P, m)
+
+    def evaluate(z):
+        z2, st, J = vj(jnp.asarray(z))
+        st = int(st)
+        if st != RESULTS.successful:
+            return None, st, None
+        return np.asarray(z2) - z, st, np.asarray(J)
+
+    F, st, J = evaluate(z)
+    if F is None:
+        raise RuntimeError(f"the return map P^{m} failed at the guess (R, Z) = ({z[0]:.6g}, {z[1]:.6g}): "
+                           f"{status_message(st)}")
+    res = float(np.linalg.norm(F))
+    it = 0
+    while res > tol * (1.0 + np.linalg.norm(z)) and it < max_iter:
+        it += 1
+        A = J - np.eye(2)
+        try:
+            dz = -np.linalg.solve(A, F)
+        except np.linalg.LinAlgError:
+            raise ConvergenceError(f"Newton for the fixed point of P^{m} stopped at (R, Z) = ({z[0]:.6g}, {z[1]:.6g}): "
+                                   f"DP^{m} − I is singular (a parabolic point); last residual {res:.3g}") from None
+        lam = 1.0
+        for _ in range(12):  # step halving: accept the first step that does not increase |F|
+            z_new = z + lam * dz
+            F_new, st_new, J_new = evaluate(z_new)
+            if F_new is not None and np.linalg.norm(F_new) < max(res, 1e-300) * (1 + 1e-12) + 1e-300:
+                break
+            lam *= 0.5
+        else:
+            raise ConvergenceError(f"Newton for the fixed point of P^{m} from (R, Z) = ({guess[0]:.6g}, {guess[1]:.6g}) "
+                                   f"did not converge: no step decreases the residual at ({z[0]:.6g}, {z[1]:.6g}); "
+                                   f"last residual {res:.3g}")
+        z, F, J = z_new, F_new, J_new
+        res = float(np.linalg.norm(F))
+    if not res <= tol * (1.0 + np.linalg.norm(z)):
+        raise ConvergenceError(f"Newton for the fixed point of P^{m} from (R, Z) = ({guess[0]:.6g}, {guess[1]:.6g}) did "
+                               f"not converge in {max_iter} iterations; last residual {res:.3g} at "
+                               f"({z[0]:.6g}, {z[1]:.6g})")
+    residue = (2.0 - float(np.trace(J))) / 4.0
+    orbit = P.orbit(z, m - 1) if m > 1 else z[None, :]
+    return FixedPoint(R=float(z[0]), Z=float(z[1]), m=m, residual=res, iterations=it, jacobian=J, residue=residue,
+                      kind=_kind(residue), orbit=orbit, phi0=P.phi0, nfp=P.nfp)
+
+
+def _tangent_winding(P: ReturnMap, z, n_periods: int) -> float:
+    """The angle (in turns, per toroidal turn) that a tangent vector turns about the line from z
+    in the (R, Z) plane, averaged over n_periods field periods: a rough ι of the linearised motion,
+    used only to pick the branch of arccos(tr/2)."""
+    step, h = P.method.step_with_status, P.h
+    n = int(round(n_periods * P.period / abs(_mean_dphi(P, z))))
+
+    def rz_tangent(x, v):
+        if P.toroidal:
+            R = jnp.sqrt(2.0 * x[0])
+            return v[0] / R, v[2]
+        R = jnp.hypot(x[0], x[1])
+        return (x[0] * v[0] + x[1] * v[1]) / R, v[2]
+
+    def body(c, _):
+        x, v, ang, phi = c
+        X, V = jax.jvp(lambda y: step(y, h)[0], (x,), (v,))
+        a0, b0 = rz_tangent(x, v)
+        a1, b1 = rz_tangent(X, V)
+        ang = ang + wrap_angle(jnp.arctan2(b1, a1) - jnp.arctan2(b0, a0))
+        phi = phi + P._dphi(X, x)
+        return (X, V / jnp.linalg.norm(V), ang, phi), None
+
+    @jax.jit
+    def run(z):
+        x = P.state(z)
+        # along u (toroidal) or along e_R at φ₀ (Cartesian): transverse to the line
+        v = jnp.array([1.0, 0.0, 0.0]) if P.toroidal else jnp.array([math.cos(P.phi0), math.sin(P.phi0), 0.0])
+        (x, v, ang, phi), _ = jax.lax.scan(body, (x, v, 0.0, 0.0), None, length=n)
+        return ang / phi
+
+    return float(run(jnp.asarray(z)))
+
+
+def _mean_dphi(P: ReturnMap, z) -> float:
+    """dφ per step at z (one step)."""
+    x = P.state(jnp.asarray(z))
+    X, _ = P.method.step_with_status(x, P.h)
+    return float(P._dphi(X, x))
+
+
+def magnetic_axis(method: Any, guess: Any, h: float, phi: float = 0.0, nfp: int = 1, *, tol: float = 1e-12,
+                  max_iter: int = 30, return_map_: ReturnMap | None = None) -> FixedPoint:
+    """The magnetic axis on the section φ = phi: the fixed point of the return map P (m = 1) of
+    ``method`` with step h, from ``guess`` = (R, Z), with its type and its rotational transform.
+
+    ι of the axis comes from the tangent map M = DP: cos(2π ι/nfp) = tr M / 2 gives ι up to the branch
+    (ι/nfp ↦ k ± ν), which is chosen by the turning of a tangent vector followed for 8 field periods;
+    it is the limit of the ι of the lines that approach the axis (the q₀ of a tokamak)."""
+    P = return_map_ or return_map(method, h, phi, nfp, guess=guess)
+    fp = find_fixed_point(P, guess, 1, tol=tol, max_iter=max_iter)
+    if fp.kind != "O":
+        return fp
+    nu0 = math.acos(max(-1.0, min(1.0, fp.trace / 2))) / (2 * math.pi)  # ∈ [0, 1/2]
+    rough = _tangent_winding(P, np.array([fp.R, fp.Z]), 8) * P.period / (2 * math.pi)  # turns per period
+    sgn = P.sign
+    k = math.floor(rough)
+    cands = [c for kk in (k - 1, k, k + 1) for c in (kk + nu0, kk + 1 - nu0)]
+    nu = min(cands, key=lambda c: abs(c - rough))
+    iota = sgn * nu * nfp  # per toroidal turn, signed by the direction of φ along B
+    return FixedPoint(**{**fp.__dict__, "iota": iota})
+
+
+def scan_fixed_points(P: ReturnMap, m: int, R: Any, Z: float = 0.0, *, tol: float = 1e-10,
+                      max_iter: int = 30) -> list[FixedPoint]:
+    """The fixed points of Pᵐ found by Newton from the local minima of |Pᵐ(z) − z| along the
+    line Z = const at the radii R (a scan of the midplane); duplicates (points of one chain) merged."""
+    R = np.asarray(R, float)
+    fm = jax.jit(jax.vmap(lambda z: P.power(z, m)))
+    zs = np.stack([R, np.full_like(R, Z)], axis=1)
+    z2, st = fm(jnp.asarray(zs))
+    d = np.linalg.norm(np.asarray(z2) - zs, axis=1)
+    d[np.asarray(st) != RESULTS.successful] = np.inf
+    minima = [i for i in range(len(R)) if np.isfinite(d[i]) and (i == 0 or d[i] <= d[i - 1])
+              and (i == len(R) - 1 or d[i] <= d[i + 1])]
+    found: list[FixedPoint] = []
+    for i in minima:
+        try:
+            fp = find_fixed_point(P, zs[i], m, tol=tol, max_iter=max_iter)
+        except (ConvergenceError, RuntimeError):
+            continue
+        orbit_pts = np.concatenate([g.orbit for g in found]) if found else np.zeros((0, 2))
+        if orbit_pts.size and np.min(np.linalg.norm(orbit_pts - [fp.R, fp.Z], axis=1)) < 1e-7:
+            continue
+        found.append(fp)
+    return found
+
+
+def island_chain(method: Any, m: int, h: float, R: Any, Z: float = 0.0, phi: float = 0.0, nfp: int = 1, *,
+                 tol: float = 1e-10) -> list[FixedPoint]:
+    """The O- and X-points of the m-island chains crossing the line Z = const at radii R (an
+    array of scan radii, e.g. ``np.linspace(1.2, 1.35, 61)``): fixed points of Pᵐ that are not fixed
+    points of a lower power dividing m (the axis is not an island)."""
+    R = np.asarray(R, float)
+    P = return_map(method, h, phi, nfp, guess=(float(np.mean(R)), float(Z)))
+    pts = scan_fixed_points(P, m, R, Z, tol=tol)
+    out = []
+    for fp in pts:  # keep the points of minimal period m
+        minimal = True
+        for d in range(1, m):
+            if m % d == 0:
+                z2, st = P.power(jnp.array([fp.R, fp.Z]), d)
+                if int(st) == RESULTS.successful and np.linalg.norm(np.asarray(z2) - [fp.R, fp.Z]) < 1e-8:
+                    minimal = False
+        if minimal:
+            out.append(fp)
+    return out

@@ -1,0 +1,233 @@
+"""Rotational transform ι of traced field lines by weighted Birkhoff averages (issue #21, item 3).
+
+ι is the mean number of poloidal turns per toroidal turn: with θ the poloidal angle about the
+magnetic axis in the (R, Z) plane and φ the toroidal angle, ι = lim Δθ/Δφ along a line. The
+method's orbit x_{n+1} = Ψ_h(x_n) on an invariant torus is quasi-periodic, and so are the per-step
+increments δθ_n = θ(x_{n+1}) − θ(x_n), δφ_n (wrapped to (−π, π]; a step turns by less than π). The
+weighted Birkhoff average
+
+    ι_N = Σ w((n + ½)/N) δθ_n / Σ w((n + ½)/N) δφ_n,     w(t) = exp(−1/(t(1 − t))),
+
+converges faster than any power of 1/N on a torus with Diophantine frequencies (Das, Sander,
+Saiki, Yorke, "Quantitative quasiperiodicity", Nonlinearity 30 (2017) 4111), where the plain
+average Σδθ/Σδφ converges as 1/N. The error estimate is |ι_N − ι_{N/2}| (the same average over
+the first half of the steps); on a chaotic line it does not decrease, which is a diagnostic too.
+
+The angle θ is measured about an axis curve (R_a(φ), Z_a(φ)); it need not be the exact axis: any
+curve encircled by the line's torus gives the same mean rotation.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import partial
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jax import lax
+
+from .._errors import RESULTS
+from .._integrate import _Bar, _check_run, _StepFn, auto_chunk_size
+from ..diagnostics._common import _chunks, _pad
+from ..diagnostics._surfaces import wrap_angle
+from ._geometry import cylindrical, is_toroidal
+
+__all__ = ["AxisCurve", "Iota", "axis_curve", "rotational_transform", "iota_profile", "birkhoff_weight"]
+
+
+def birkhoff_weight(t):
+    """w(t) = exp(−1/(t(1 − t))) on (0, 1), 0 outside: smooth, all derivatives vanish at 0 and 1."""
+    t = jnp.asarray(t)
+    inside = (t > 0) & (t < 1)
+    ts = jnp.where(inside, t, 0.5)
+    return jnp.where(inside, jnp.exp(-1.0 / (ts * (1.0 - ts))), 0.0)
+
+
+@dataclass(frozen=True)
+class AxisCurve:
+    """A closed curve R = R_a(φ), Z = Z_a(φ), 2π/nfp-periodic, as a Fourier series in φ:
+    R_a = Σ_k (a_k cos(k nfp φ) + b_k sin(k nfp φ)) and likewise Z_a (k = 0 … K)."""
+
+    R_cos: tuple
+    R_sin: tuple
+    Z_cos: tuple
+    Z_sin: tuple
+    nfp: int = 1
+
+    @classmethod
+    def constant(cls, R: float, Z: float) -> "AxisCurve":
+        """The circle R = R_a, Z = Z_a (an axisymmetric axis)."""
+        return cls((float(R),), (0.0,), (float(Z),), (0.0,), 1)
+
+    @classmethod
+    def fit(cls, phi, R, Z, nfp: int = 1, harmonics: int = 8) -> "AxisCurve":
+        """Least-squares Fourier fit of samples (φ_i, R_i, Z_i) of an axis line."""
+        phi, R, Z = (np.asarray(a, float) for a in (phi, R, Z))
+        K = int(min(harmonics, max(0, (phi.size - 1) // 2 - 1)))
+        k = np.arange(K + 1)
+        A = np.hstack([np.cos(np.outer(phi, k * nfp)), np.sin(np.outer(phi, k[1:] * nfp))])
+        cR, *_ = np.linalg.lstsq(A, R, rcond=None)
+        cZ, *_ = np.linalg.lstsq(A, Z, rcond=None)
+        return cls(tuple(cR[:K + 1]), (0.0, *cR[K + 1:]), tuple(cZ[:K + 1]), (0.0, *cZ[K + 1:]), int(nfp))
+
+    def __call__(self, phi):
+        k = jnp.arange(len(self.R_cos)) * self.nfp
+        c, s = jnp.cos(phi * k), jnp.sin(phi * k)
+        return (jnp.dot(c, jnp.asarray(self.R_cos)) + jnp.dot(s, jnp.asarray(self.R_sin)),
+                jnp.dot(c, jnp.asarray(self.Z_cos)) + jnp.dot(s, jnp.asarray(self.Z_sin)))
+
+
+def axis_curve(method: Any, axis: Any, h: float, *, harmonics: int = 8) -> AxisCurve:
+    """The axis line traced from the fixed point ``axis`` (a :class:`FixedPoint` of
+    :func:`magnetic_axis`) through one field period with the method, as a Fourier
+    :class:`AxisCurve` in φ (for non-axisymmetric fields, where the axis moves with φ)."""
+    from .._integrate import integrate
+    from ._returnmap import ReturnMap
+
+    P = ReturnMap(method, h, axis.phi0, axis.nfp)
+    x = np.asarray(P.state(jnp.array([axis.R, axis.Z])))
+    X, _ = method.step_with_status(jnp.asarray(x), h)
+    dphi = abs(float(P._dphi(X, jnp.asarray(x))))
+    if not dphi > 0:
+        raise ValueError("the axis line does not turn toroidally: no axis curve")
+    n = max(8, math.ceil(P.period / (dphi)))
+    sol = integrate(method, x, h, n, save_every=1, progress=False)
+    if not sol.ok:
+        raise RuntimeError(f"tracing the axis line failed: {sol.summary()}")
+    R, phi, Z = (np.asarray(a) for a in cylindrical(jnp.asarray(sol.xs.reshape(-1, 3)), P.toroidal))
+    return AxisCurve.fit(phi, R, Z, axis.nfp, harmonics)
+
+
+def _as_axis(axis: Any) -> AxisCurve:
+    if isinstance(axis, AxisCurve):
+        return axis
+    if hasattr(axis, "R") and hasattr(axis, "Z") and hasattr(axis, "m"):  # a FixedPoint: the axis at φ₀
+        return AxisCurve.constant(axis.R, axis.Z)
+    a = np.asarray(axis, float).reshape(-1)
+    if a.shape != (2,) or not np.all(np.isfinite(a)):
+        raise ValueError(f"axis must be an AxisCurve, a FixedPoint or an (R, Z) pair; got {axis!r}")
+    return AxisCurve.constant(a[0], a[1])
+
+
+@dataclass(frozen=True)
+class Iota:
+    """ι per line (weighted Birkhoff average), with ``error`` = |ι_N − ι_{N/2}|, ``plain`` the
+    unweighted Δθ/Δφ, ``transits`` = Δφ/2π, ``status`` per line (RESULTS; a failed line's ι is NaN),
+    and the start points ``R0``, ``Z0``."""
+
+    iota: np.ndarray
+    error: np.ndarray
+    plain: np.ndarray
+    transits: np.ndarray
+    status: np.ndarray
+    R0: np.ndarray
+    Z0: np.ndarray
+    n_steps: int
+
+    @property
+    def q(self) -> np.ndarray:
+        """The safety factor 1/ι."""
+        with np.errstate(divide="ignore"):
+            return 1.0 / self.iota
+
+    def to_csv(self, path: str) -> None:
+        data = np.column_stack([self.R0, self.Z0, self.iota, self.error, self.q, self.plain, self.transits,
+                                self.status])
+        np.savetxt(path, data, delimiter=",", header="R,Z,iota,error,q,iota_plain,transits,status", comments="",
+                   fmt=["%.17g"] * 7 + ["%d"])
+
+
+@partial(jax.jit, static_argnums=(0, 1, 2, 3))
+def _iota_scan(step_fn, seg, toroidal, axis, x, st, sums, n0, N, h):
+    """seg steps from step n0 of N: accumulate the weighted and plain sums of δθ and δφ."""
+    half = jnp.floor(N / 2)
+
+    def theta_of(x):
+        R, phi, Z = cylindrical(x, toroidal)
+        Ra, Za = axis(phi)
+        return jnp.arctan2(Z - Za, R - Ra), phi
+
+    def one(x, st, sums):
+        def body(carry, j):
+            x, st, sums = carry
+            n = n0 + j
+            X, s = step_fn(x, h)
+            s = jnp.where((s == RESULTS.successful) & ~jnp.all(jnp.isfinite(X)), RESULTS.nonfinite, s)
+            live = (st == RESULTS.successful) & (n < N)
+            good = live & (s == RESULTS.successful)
+            st = jnp.where(live & ~good, s, st)
+            th0, ph0 = theta_of(x)
+            th1, ph1 = theta_of(X)
+            dth, dph = wrap_angle(th1 - th0), wrap_angle(ph1 - ph0)
+            w = birkhoff_weight((n + 0.5) / N) * good
+            wh = birkhoff_weight((n + 0.5) / half) * good
+            g = good.astype(jnp.float64)
+            sums = sums + jnp.stack([w * dth, w * dph, wh * dth, wh * dph, g * dth, g * dph])
+            return (jnp.where(good, X, x), st, sums), None
+
+        (x, st, sums), _ = lax.scan(body, (x, st, sums), jnp.arange(seg))
+        return x, st, sums
+
+    return jax.vmap(one)(x, st, sums)
+
+
+def rotational_transform(method: Any, x0: Any, h: float, n_steps: int, axis: Any, *, chunk_size: int | None = None,
+                         progress: bool | str = "auto") -> Iota:
+    """ι of the field lines from x0 (field coordinates, Cartesian or (u, φ, Z)) over n_steps steps
+    of h, by the weighted Birkhoff average of the poloidal angle about ``axis`` (an
+    :class:`AxisCurve`, the :class:`~vpforms.fieldlines.FixedPoint` of :func:`magnetic_axis`, or an
+    (R, Z) pair); module docstring."""
+    pts, _, h, n_steps = _check_run(method, x0, h, n_steps, 0.0)
+    if n_steps < 2:
+        raise ValueError(f"n_steps must be ≥ 2 for a Birkhoff average; got {n_steps}")
+    ax = _as_axis(axis)
+    toroidal = is_toroidal(getattr(method, "field", None))
+    N = pts.shape[0]
+    C = min(N, chunk_size or auto_chunk_size(N, 8))
+    seg = max(1, min(n_steps, 1024))
+    fn = _StepFn(method)
+    sums_all = np.zeros((N, 6))
+    status = np.zeros(N, dtype=np.int32)
+    bar = _Bar(progress, N * n_steps, "rotational transform")
+    try:
+        for lo, hi in _chunks(N, C):
+            x = jnp.asarray(_pad(pts[lo:hi], C))
+            st = jnp.zeros(C, jnp.int32)
+            sums = jnp.zeros((C, 6))
+            done = 0
+            while done < n_steps:
+                x, st, sums = _iota_scan(fn, seg, toroidal, ax, x, st, sums, jnp.asarray(done), jnp.asarray(n_steps),
+                                         jnp.asarray(float(h)))
+                L = min(seg, n_steps - done)
+                done += L
+                bar.update((hi - lo) * L)
+            sums_all[lo:hi] = np.asarray(sums)[: hi - lo]
+            status[lo:hi] = np.asarray(st)[: hi - lo]
+    finally:
+        bar.close()
+    ok = status == RESULTS.successful
+    with np.errstate(divide="ignore", invalid="ignore"):
+        iota = np.where(ok, sums_all[:, 0] / sums_all[:, 1], np.nan)
+        iota_half = np.where(ok, sums_all[:, 2] / sums_all[:, 3], np.nan)
+        plain = np.where(ok, sums_all[:, 4] / sums_all[:, 5], np.nan)
+    R0, _, Z0 = (np.asarray(a) for a in cylindrical(jnp.asarray(pts), toroidal))
+    return Iota(iota=iota, error=np.abs(iota - iota_half), plain=plain, transits=np.abs(sums_all[:, 5]) / (2 * math.pi),
+                status=status, R0=R0, Z0=Z0, n_steps=n_steps)
+
+
+def iota_profile(method: Any, R: Any, h: float, n_steps: int, axis: Any, *, Z: float | None = None, phi: float = 0.0,
+                 **kw: Any) -> Iota:
+    """ι (and q = 1/ι) of the lines starting at radii R on the line Z = const (default: the axis's Z)
+    of the half-plane φ = phi: the outboard-midplane profile for R beyond the axis."""
+    ax = _as_axis(axis)
+    R = np.asarray(R, float).reshape(-1)
+    Ra, Za = (float(v) for v in ax(jnp.asarray(float(phi))))
+    Zs = np.full_like(R, Za if Z is None else float(Z))
+    if is_toroidal(getattr(method, "field", None)):
+        x0 = np.stack([0.5 * R * R, np.full_like(R, float(phi)), Zs], axis=1)
+    else:
+        x0 = np.stack([R * math.cos(phi), R * math.sin(phi), Zs], axis=1)
+    return rotational_transform(method, x0, h, n_steps, ax, **kw)

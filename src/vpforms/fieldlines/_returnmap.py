@@ -1,0 +1,178 @@
+"""The φ-return map of a field-line method, differentiable: P(R, Z) on the section φ = φ₀ (issue #21).
+
+P takes a point (R, Z) of the half-plane φ = φ₀, steps the method until the line reaches the next
+half-plane φ₀ ± 2π/nfp (the sign of B^φ at the start), and locates the crossing on the method's own
+step family θ ↦ Ψ_{θh}(x_n) (as :func:`~vpforms.diagnostics.poincare_section` does). The crossing
+θ* is found by regula falsi (no derivative) and then polished by one Newton step on
+g(θ) = φ(Ψ_{θh}(x_n)) − φ_target whose divisor is held constant for AD:
+
+    θ = θ* − g(θ*, x_n) / stop_gradient(g_θ),
+
+so ``jax.jacfwd`` of P is the exact implicit-function derivative dθ/dx = −g_x/g_θ at the crossing
+(g(θ*) = 0 to rounding): the Jacobian DP of the *discrete* map, which is what Newton for fixed
+points and the tangent-map classification need.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jax import lax
+
+from .._errors import RESULTS
+from ..diagnostics._surfaces import wrap_angle
+from ._geometry import is_toroidal
+
+__all__ = ["ReturnMap", "return_map"]
+
+#: status codes of the return map beyond RESULTS (a step failed: its RESULTS code)
+NO_RETURN = 100
+
+
+class ReturnMap:
+    """P: (R, Z) on φ = φ₀ → (R, Z) on the next half-plane φ₀ ± 2π/nfp, for one field-line method.
+
+    ``__call__(z)`` → (z′, status) for z of shape (2,) (jit/vmap/jacfwd-able; status 0 success,
+    a RESULTS code when a step failed, ``NO_RETURN`` = 100 when the line did not come back within
+    ``max_steps``); ``power(z, m)`` is Pᵐ. ``sign`` is the direction of B^φ (+1: φ increasing),
+    ``period`` = 2π/nfp.
+    """
+
+    def __init__(self, method: Any, h: float, phi: float = 0.0, nfp: int = 1, *, sign: int = 1,
+                 max_steps: int = 100_000):
+        if isinstance(nfp, bool) or int(nfp) != nfp or int(nfp) < 1:
+            raise ValueError(f"nfp must be a positive integer; got {nfp!r}")
+        if sign not in (-1, 1):
+            raise ValueError(f"sign must be +1 or -1; got {sign!r}")
+        if not (h > 0 and math.isfinite(h)):
+            raise ValueError(f"h must be a positive number; got {h!r}")
+        self.method, self.h, self.nfp, self.sign = method, float(h), int(nfp), int(sign)
+        self.period = 2 * math.pi / self.nfp
+        self.phi0 = float(phi)
+        self.max_steps = int(max_steps)
+        self.toroidal = is_toroidal(getattr(method, "field", None))
+        self._call = jax.jit(self._map)
+
+    # -- coordinates of the section ------------------------------------------------------------
+    def state(self, z, phi=None):
+        """The point of the section at (R, Z) = z, in the field's coordinates."""
+        phi = self.phi0 if phi is None else phi
+        R, Z = z[0], z[1]
+        if self.toroidal:
+            return jnp.stack([0.5 * R * R, jnp.asarray(phi, R.dtype) + 0.0 * R, Z])
+        return jnp.stack([R * jnp.cos(phi), R * jnp.sin(phi), Z])
+
+    def rz(self, x):
+        """(R, Z) of a point in the field's coordinates."""
+        if self.toroidal:
+            return jnp.stack([jnp.sqrt(2.0 * x[0]), x[2]])
+        return jnp.stack([jnp.hypot(x[0], x[1]), x[2]])
+
+    def _dphi(self, X, x):  # the toroidal angle turned from x to X (lifted)
+        if self.toroidal:
+            return X[1] - x[1]
+        return wrap_angle(jnp.arctan2(X[1], X[0]) - jnp.arctan2(x[1], x[0]))
+
+    # -- the map -------------------------------------------------------------------------------
+    def _map(self, z):
+        step, h, s = self.method.step_with_status, self.h, self.sign
+        z = jnp.asarray(z, jnp.float64)
+        x = self.state(z)
+        target = s * self.period  # φ turned at the next half-plane (relative to the start)
+
+        def cond(c):
+            x, xp, ph, php, n, st = c
+            return (st == RESULTS.successful) & (s * (ph - target) < 0) & (n < self.max_steps)
+
+        def body(c):
+            x, xp, ph, php, n, st = c
+            X, sX = step(x, h)
+            sX = jnp.where((sX == RESULTS.successful) & ~jnp.all(jnp.isfinite(X)), RESULTS.nonfinite, sX)
+            ok = sX == RESULTS.successful
+            return (jnp.where(ok, X, x), x, jnp.where(ok, ph + self._dphi(X, x), ph), ph, n + 1, sX)
+
+        zero = jnp.zeros((), jnp.float64)
+        x, xp, ph, php, n, st = lax.while_loop(
+            cond, body, (x, x, zero, zero, jnp.int32(0), jnp.int32(RESULTS.successful)))
+        st = jnp.where((st == RESULTS.successful) & (s * (ph - target) < 0), NO_RETURN, st)
+
+        def g(th, xp):  # angle past the target after a sub-step θh from x_n
+            Y, _ = step(xp, th * h)
+            return php + self._dphi(Y, xp) - target
+
+        xs = lax.stop_gradient(xp)
+        g0, g1 = lax.stop_gradient(php - target), lax.stop_gradient(ph - target)
+
+        def rf_body(c, _):  # Illinois regula falsi on θ ∈ [0, 1], derivative-free
+            a, fa, b, fb = c
+            t = jnp.clip((a * fb - b * fa) / jnp.where(fb == fa, 1.0, fb - fa), jnp.minimum(a, b), jnp.maximum(a, b))
+            ft = g(t, xs)
+            same = jnp.sign(ft) == jnp.sign(fb)
+            return (jnp.where(same, a, b), jnp.where(same, fa * 0.5, fb), t, ft), None
+
+        (a, fa, b, fb), _ = lax.scan(rf_body, (0.0, g0, 1.0, g1), None, length=40)
+        th0 = lax.stop_gradient(jnp.where(jnp.abs(fa) < jnp.abs(fb), a, b))
+        gth = lax.stop_gradient(jax.jvp(lambda t: g(t, xs), (th0,), (jnp.ones(()),))[1])
+        th = th0 - g(th0, xp) / gth  # one Newton polish: exact IFT derivative under jacfwd
+        Y, sY = step(xp, th * h)
+        st = jnp.where((st == RESULTS.successful) & (sY != RESULTS.successful), sY, st)
+        return self.rz(Y), st
+
+    def __call__(self, z):
+        return self._call(z)
+
+    def power(self, z, m: int):
+        """Pᵐ(z) and the first failure status (jit-able)."""
+        st = jnp.int32(RESULTS.successful)
+        for _ in range(int(m)):
+            z2, s = self._map(z)
+            st = jnp.where(st == RESULTS.successful, s, st)
+            z = z2
+        return z, st
+
+    def orbit(self, z, m: int) -> np.ndarray:
+        """(m + 1, 2): z, P(z), …, Pᵐ(z) (host arrays)."""
+        out = [np.asarray(z, float)]
+        for _ in range(int(m)):
+            z, st = self(jnp.asarray(out[-1]))
+            if int(st) != RESULTS.successful:
+                raise RuntimeError(f"the return map failed after {len(out) - 1} transits from (R, Z) = "
+                                   f"{tuple(out[0])}: {status_message(int(st))}")
+            out.append(np.asarray(z))
+        return np.array(out)
+
+
+def status_message(st: int) -> str:
+    if st == NO_RETURN:
+        return "the line did not come back to the section within max_steps steps"
+    return RESULTS.messages.get(st, f"status {st}")
+
+
+def return_map(method: Any, h: float, phi: float = 0.0, nfp: int = 1, *, guess: Any = None,
+               max_steps: int | None = None) -> ReturnMap:
+    """The φ-return map of ``method`` on the section φ = phi (mod 2π/nfp) (module docstring).
+
+    The direction (sign of B^φ) and, unless given, the step cap (20× the steps of one field period
+    at the guess's B^φ) are taken from the field at ``guess`` = (R, Z) (default: the centre of the
+    field's box)."""
+    field = method.field
+    tor = is_toroidal(field)
+    if guess is None:
+        box = np.asarray(field.box, float)
+        c = box.mean(axis=1)
+        guess = (math.sqrt(2 * c[0]), c[2]) if tor else (float(np.hypot(box[0, 1], box[1, 1]) / 2), c[2])
+    g = np.asarray(guess, float)
+    probe = ReturnMap(method, h, phi, nfp, max_steps=1)
+    x = np.asarray(probe.state(jnp.asarray(g)))
+    a = np.asarray(field(x[None]))[0]
+    dphi = a[1] if tor else (x[0] * a[1] - x[1] * a[0]) / (x[0] ** 2 + x[1] ** 2)
+    if not np.isfinite(dphi) or dphi == 0:
+        raise ValueError(f"B^φ = {dphi} at (R, Z) = {tuple(g)}: the field line does not turn toroidally there, "
+                         "so it has no φ-return map")
+    if max_steps is None:
+        max_steps = int(20 * (2 * math.pi / nfp) / (abs(dphi) * h)) + 100
+    return ReturnMap(method, h, phi, nfp, sign=int(np.sign(dphi)), max_steps=max_steps)
