@@ -1,18 +1,24 @@
 """Higher order by composition (Hairer–Lubich–Wanner II.4, V.3).
 
 * order 2: S_h = Ψ*_{h/2} ∘ Ψ_{h/2} (symmetric, since (Ψ*)* = Ψ);
-* order 4/6: symmetric compositions S_{γ_s h} ∘ … ∘ S_{γ_1 h} of the order-2 method with the
+* order 4/6/8: symmetric compositions S_{γ_s h} ∘ … ∘ S_{γ_1 h} of the order-2 method with the
   coefficients of :data:`COMPOSITIONS` (data): triple jump (Creutz–Gocksch, Suzuki, Yoshida 1990),
   Suzuki's 5-stage order 4, Yoshida's 7-stage order 6 ("solution A") and Kahan–Li's 9-stage order 6
-  (s9odr6a). Their order conditions (Σγ = 1, Σγ³ = 0, …) are checked in the tests.
-* order 4, "blanes_moan": a composition of Ψ with its adjoint, Ψ*_{α_s h}∘Ψ_{β_s h}∘…∘Ψ*_{α_1 h}∘
-  Ψ_{β_1 h} (HLW V.3.2, eq. (3.4)) with Blanes & Moan's optimised coefficients
-  (:data:`ADJOINT_COMPOSITIONS`): 12 order-1 stages where Suzuki's has 10, with a leading error ~20×
-  smaller (measured on ABC), so fewer steps for a given accuracy.
+  (s9odr6a); order 8: Suzuki–Umeno's 15-stage set (also McLachlan's and Kahan–Li's s15odr8),
+  Kahan–Li's 17-stage s17odr8, Yoshida's 15-stage "solution D" and the 27-stage triple jump.
+  Their order conditions (Σγ = 1, Σγ³ = 0, …) are checked in the tests.
+* order 4 and 6, "blanes_moan": a composition of Ψ with its adjoint,
+  Ψ*_{α_s h}∘Ψ_{β_s h}∘…∘Ψ*_{α_1 h}∘Ψ_{β_1 h} (HLW V.3.2, eq. (3.4)) with Blanes & Moan's optimised
+  coefficients (:data:`ADJOINT_COMPOSITIONS`): at order 4, 12 order-1 stages where Suzuki's has 10,
+  with a leading error ~20× smaller (measured on ABC), so fewer steps for a given accuracy; at order
+  6 (S10), 20 stages where Kahan–Li's has 18, with an error constant 8–50× smaller (measured).
+
+The cost of a step is its number of order-1 stages (:func:`stages`) times the cost of one step of
+the method; ``benchmarks/results_orders.md`` measures which composition needs the fewest stages for
+a given accuracy.
 """
 
 from __future__ import annotations
-
 
 import jax.numpy as jnp
 import numpy as np
@@ -22,8 +28,16 @@ from .._spec import records_spec
 from ._base import Method, merge_status
 from .recover import Recovering, SubstepLadder
 
-__all__ = ["compose", "ADJOINT_COMPOSITIONS", "AdjointComposition", "COMPOSITIONS", "Composition",
-           "SymmetricPair", "triple_jump"]
+__all__ = [
+    "ADJOINT_COMPOSITIONS",
+    "COMPOSITIONS",
+    "AdjointComposition",
+    "Composition",
+    "SymmetricPair",
+    "compose",
+    "stages",
+    "triple_jump",
+]
 
 
 def triple_jump(order: int) -> tuple[float, ...]:
@@ -55,15 +69,64 @@ _KL9 = (
     0.79854399093482996340,
 )
 
+# Order 8, 15 stages, γ₁ … γ₈ (γ₉ … γ₁₅ = γ₇ … γ₁): the solution of the 8 order conditions with
+# the smallest max|γᵢ|, found by Suzuki & Umeno (1993, in "Computer Simulation Studies in Condensed-
+# Matter Physics VI", Springer, 74–86) and McLachlan (SIAM J. Sci. Comput. 16 (1995) 151–168), and
+# listed as "s15odr8" by Kahan & Li (Math. Comp. 66 (1997) 1089–1099); the 26 digits as printed in
+# Hairer–Lubich–Wanner, Geometric Numerical Integration (2nd ed. 2006), V.3.2, for p = 8, s = 15.
+_SU15 = (
+    0.74167036435061295344822780,
+    -0.40910082580003159399730010,
+    0.19075471029623837995387626,
+    -0.57386247111608226665638773,
+    0.29906418130365592384446354,
+    0.33462491824529818378495798,
+    0.31529309239676659663205666,
+    -0.79688793935291635401978884,
+)
+
+# Order 8, 17 stages, γ₁ … γ₉ (γ₁₀ … γ₁₇ = γ₈ … γ₁): Kahan & Li, Math. Comp. 66 (1997) 1089–1099,
+# "s17odr8" (the two free parameters chosen for small error terms); 26 digits as printed in HLW
+# V.3.2 for p = 8, s = 17.
+_KL17 = (
+    0.13020248308889008087881763,
+    0.56116298177510838456196441,
+    -0.38947496264484728640807860,
+    0.15884190655515560089621075,
+    -0.39590389413323757733623154,
+    0.18453964097831570709183254,
+    0.25837438768632204729397911,
+    0.29501172360931029887096624,
+    -0.60550853383003451169892108,
+)
+
+
+def _yoshida15() -> tuple[float, ...]:
+    """Yoshida, Phys. Lett. A 150 (1990) 262–268, Table 2, order 8 "solution D" (15 digits):
+    γ = (w₇, …, w₁, w₀, w₁, …, w₇), w₀ = 1 − 2(w₁ + … + w₇)."""
+    w = (0.102799849391985, -1.96061023297549, 1.93813913762276, -0.158240635368243,
+         -1.44485223686048, 0.253693336566229, 0.914844246229740)  # w₁ … w₇
+    w0 = 1.0 - 2.0 * sum(w)
+    return w[::-1] + (w0,) + w
+
+
+def _palindrome(half):
+    return tuple(half) + tuple(half[-2::-1])
+
+
 #: (order, name) → coefficients γ of the symmetric composition of a symmetric order-2 method.
 COMPOSITIONS: dict[tuple[int, str], tuple[float, ...]] = {
     (4, "triple_jump"): triple_jump(4),
     (4, "suzuki"): _suzuki5(),
     (6, "triple_jump"): triple_jump(6),
     (6, "yoshida"): _yoshida7(),
-    (6, "kahan_li"): _KL9 + _KL9[-2::-1],
+    (6, "kahan_li"): _palindrome(_KL9),
+    (8, "suzuki_umeno"): _palindrome(_SU15),
+    (8, "kahan_li"): _palindrome(_KL17),
+    (8, "yoshida"): _yoshida15(),
+    (8, "triple_jump"): triple_jump(8),
 }
-DEFAULT = {4: "suzuki", 6: "kahan_li"}
+DEFAULT = {4: "suzuki", 6: "kahan_li", 8: "kahan_li"}
 
 
 def from_splitting(a, b) -> tuple[tuple[float, ...], tuple[float, ...]]:
@@ -91,10 +154,38 @@ def _blanes_moan_s6():
     return from_splitting((a1, a2, a3, a4, a3, a2, a1), (b1, b2, b3, b3, b2, b1))
 
 
+def _blanes_moan_s10():
+    """Blanes & Moan, J. Comput. Appl. Math. 142 (2002) 313–330, Table 2, S10 (order 6, 10 stages):
+    a = (a₁, …, a₅, a₆, a₅, …, a₁), b = (b₁, …, b₅, b₅, …, b₁)."""
+    a = (0.0502627644003922, 0.413514300428344, 0.0450798897943977, -0.188054853819569,
+         0.541960678450780)
+    b = (0.148816447901042, -0.132385865767784, 0.067307604692185, 0.432666402578175)
+    a6, b5 = 1.0 - 2.0 * sum(a), 0.5 - sum(b)
+    return from_splitting(a + (a6,) + a[::-1], b + (b5, b5) + b[::-1])
+
+
 #: (order, name) → (β, α) of the composition of a method with its adjoint (:class:`AdjointComposition`).
 ADJOINT_COMPOSITIONS: dict[tuple[int, str], tuple[tuple[float, ...], tuple[float, ...]]] = {
     (4, "blanes_moan"): _blanes_moan_s6(),
+    (6, "blanes_moan"): _blanes_moan_s10(),
 }
+
+
+def stages(order: int, scheme: str | None = None) -> int:
+    """Order-1 stages (steps of the method Ψ or of its adjoint) in one step of
+    ``compose(Ψ, order, scheme)`` for an order-1 Ψ: the cost of a step is this many times Ψ's.
+
+    2 for order 2; 2·s for a symmetric composition of s order-2 stages Ψ*_{h/2}∘Ψ_{h/2} (e.g. 30
+    for order 8, "suzuki_umeno"); 2·s for an adjoint composition of s pairs (12 for order 4,
+    "blanes_moan")."""
+    if order == 2 and scheme is None:
+        return 2
+    name = DEFAULT.get(order) if scheme is None else scheme
+    if (order, name) in ADJOINT_COMPOSITIONS:
+        return 2 * len(ADJOINT_COMPOSITIONS[(order, name)][0])
+    if (order, name) in COMPOSITIONS:
+        return 2 * len(COMPOSITIONS[(order, name)])
+    raise ValueError(f"unknown order-{order} composition {name!r}")
 
 
 class SymmetricPair(Method):
@@ -238,18 +329,52 @@ def _merge(a, b):
 
 @records_spec("compose")
 def compose(method: Method, order: int = 2, scheme: str | None = None) -> Method:
-    """A method of order 2, 4 or 6 from ``method`` (any order-1 method of vpforms).
+    """A method of order 2, 4, 6 or 8 from ``method`` (any order-1 method of vpforms).
 
     order 2: Ψ*_{h/2}∘Ψ_{h/2}; order 4: ``scheme`` "suzuki" (default) or "triple_jump"; order 6:
-    "kahan_li" (default), "yoshida" or "triple_jump" — each a symmetric composition of the order-2
-    method (or of ``method`` itself if it is already symmetric of order ≥ 2). Order 4,
-    "blanes_moan": ``method`` and its adjoint in alternation (:class:`AdjointComposition`, 12
-    stages), the cheapest order 4 here for a given accuracy.
+    "kahan_li" (default), "yoshida" or "triple_jump"; order 8: "kahan_li" (default),
+    "suzuki_umeno", "yoshida" or "triple_jump" — each a symmetric composition of the order-2
+    method (or of ``method`` itself if it is already symmetric of order ≥ 2). Order 4 and 6,
+    "blanes_moan":
+    ``method`` and its adjoint in alternation (:class:`AdjointComposition`).
+
+    Cost per step, in steps of an order-1 ``method`` (:func:`stages`; halve the symmetric
+    compositions' counts for a symmetric order-2 ``method``):
+
+    ======  ======================================================================================
+    order   scheme: stages
+    ======  ======================================================================================
+    2       — : 2
+    4       "triple_jump": 6, "suzuki": 10, "blanes_moan": 12
+    6       "yoshida": 14 (Yoshida 1990, solution A), "kahan_li": 18 (s9odr6a), "blanes_moan": 20
+            (Blanes & Moan 2002, S10), "triple_jump": 18
+    8       "suzuki_umeno": 30 (Suzuki–Umeno 1993, = McLachlan 1995's and Kahan–Li 1997's s15odr8),
+            "yoshida": 30 (Yoshida 1990, solution D), "kahan_li": 34 (Kahan–Li 1997, s17odr8),
+            "triple_jump": 54
+    ======  ======================================================================================
+
+    Which needs the fewest stages for a given accuracy (``benchmarks/results_orders.md``: SE+SE,
+    max global error at T = 4, stages for the whole run; after ";" those within 10 %):
+
+    ======  ==========================================  ==========================================
+    error   ABC flow                                    tokamak field lines
+    ======  ==========================================  ==========================================
+    1e-6    6 "blanes_moan" (160)                       8 "kahan_li" (374); 6 "blanes_moan" (400)
+    1e-9    6 "blanes_moan" (500); 8 "kahan_li",         8 "kahan_li" (850)
+            "suzuki_umeno" (510)
+    1e-12   8 "suzuki_umeno" (1200); 8 "kahan_li"       8 "kahan_li" (1972)
+            (1224)
+    ======  ==========================================  ==========================================
+
+    Order 2 needs 5526 (ABC) and 9552 (tokamak) stages for 1e-6; the default order 4 ("suzuki")
+    460 and 850, order 6 "kahan_li" 270 and 504. Measured error constants (err ≈ C·h^p at T = 4,
+    ABC / tokamak): order 8 "kahan_li" 4.0e-5 / 1.8e-3, "suzuki_umeno" 9.7e-5 / 1.5e-2, "yoshida"
+    7.7e-3 / 1.25, "triple_jump" 0.38 / 70 — hence the default.
     """
     if not isinstance(method, Method):
         raise TypeError(f"compose needs a vpforms method (vpforms.scheme(...)), got {type(method).__name__}")
-    if order not in (2, 4, 6):
-        raise ValueError(f"order must be 2, 4 or 6, not {order!r}")
+    if order not in (2, 4, 6, 8):
+        raise ValueError(f"order must be 2, 4, 6 or 8, not {order!r}")
     if isinstance(method, Recovering):
         # recovery of the COMPOSED step (issue #19, item 5): where it fails, the whole composition
         # of an alternative is taken — the same order — instead of one switched stage, which

@@ -179,10 +179,10 @@ def _make_method(field, cls, case, order, fast, theta, recover=True, composition
         raise CLIError(str(exc)) from None
     if order == 1:
         if composition is not None:
-            raise CLIError("--composition chooses the coefficients of --order 4 or 6")
+            raise CLIError("--composition chooses the coefficients of --order 4, 6 or 8")
         return m
-    if order not in (2, 4, 6):
-        raise CLIError(f"--order must be 1, 2, 4 or 6, not {order}")
+    if order not in (2, 4, 6, 8):
+        raise CLIError(f"--order must be 1, 2, 4, 6 or 8, not {order}")
     try:
         return compose(m, order=order, scheme=composition)
     except ValueError as exc:  # unknown composition for that order
@@ -258,12 +258,13 @@ def _add_method_args(p, default_order=1, backend=False):
                         "(the explicit baseline); default SE+SE")
     p.add_argument("--case", nargs=2, metavar=("SIGMA", "SIGMA2"),
                    help="an explicit case (σ, Σ) instead of the class representative, e.g. --case 2,3,1 1,3,2")
-    p.add_argument("--order", type=int, default=default_order, choices=(1, 2, 4, 6),
+    p.add_argument("--order", type=int, default=default_order, choices=(1, 2, 4, 6, 8),
                    help=f"composition order (1 = the bare method); default {default_order}")
     p.add_argument("--composition", default=None, metavar="NAME",
                    help="coefficients for --order 4: suzuki (default), blanes_moan (the method and "
                         "its adjoint, 12 stages: the cheapest for a given accuracy), triple_jump; "
-                        "--order 6: kahan_li (default), yoshida, triple_jump")
+                        "--order 6: kahan_li (default), blanes_moan, yoshida, triple_jump; --order 8: "
+                        "kahan_li (default), suzuki_umeno, yoshida, triple_jump")
     p.add_argument("--fast", action="store_true",
                    help="direct evaluation of the same map: closed-form shears (SE+SE) or the nested "
                         "θ-stages (SE+DL, DL+DL: no fold failures of the discrete Lagrangian)")

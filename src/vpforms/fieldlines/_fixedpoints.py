@@ -78,9 +78,12 @@ def _value_and_jac(P: ReturnMap, m: int):
     key = ("vj", m)
     cache = P.__dict__.setdefault("_jit_cache", {})
     if key not in cache:
-        def both(z):  # Pᵐ(z), its status and DPᵐ(z) (exact, forward mode)
-            z2, st = P.power(z, m)
-            J = jax.jacfwd(lambda y: P.power(y, m)[0])(z)
+        def both(z):  # Pᵐ(z), its status and DPᵐ(z) (exact, forward mode; one trace of the map)
+            def f(y):
+                z2, st = P.power(y, m)
+                return z2, (z2, st)
+
+            J, (z2, st) = jax.jacfwd(f, has_aux=True)(z)
             return z2, st, J
 
         cache[key] = jax.jit(both)

@@ -31,6 +31,7 @@ from jax import lax
 
 from .._errors import RESULTS
 from .._integrate import _Bar, _check_run, _StepFn, auto_chunk_size
+from .._recovery import bare_first
 from ..diagnostics._common import _chunks, _pad
 from ..diagnostics._surfaces import wrap_angle
 from ._geometry import cylindrical, is_toroidal
@@ -187,27 +188,32 @@ def rotational_transform(method: Any, x0: Any, h: float, n_steps: int, axis: Any
     toroidal = is_toroidal(getattr(method, "field", None))
     N = pts.shape[0]
     C = min(N, chunk_size or auto_chunk_size(N, 8))
-    seg = max(1, min(n_steps, 1024))
-    fn = _StepFn(method)
-    sums_all = np.zeros((N, 6))
-    status = np.zeros(N, dtype=np.int32)
-    bar = _Bar(progress, N * n_steps, "rotational transform")
-    try:
-        for lo, hi in _chunks(N, C):
-            x = jnp.asarray(_pad(pts[lo:hi], C))
-            st = jnp.zeros(C, jnp.int32)
-            sums = jnp.zeros((C, 6))
-            done = 0
-            while done < n_steps:
-                x, st, sums = _iota_scan(fn, seg, toroidal, ax, x, st, sums, jnp.asarray(done), jnp.asarray(n_steps),
-                                         jnp.asarray(float(h)))
-                L = min(seg, n_steps - done)
-                done += L
-                bar.update((hi - lo) * L)
-            sums_all[lo:hi] = np.asarray(sums)[: hi - lo]
-            status[lo:hi] = np.asarray(st)[: hi - lo]
-    finally:
-        bar.close()
+    seg = 1024 if n_steps >= 1024 else 1 << (n_steps - 1).bit_length()  # few compiled lengths
+    def run(m):
+        fn = _StepFn(m)
+        sums_all = np.zeros((N, 6))
+        status = np.zeros(N, dtype=np.int32)
+        bar = _Bar(progress, N * n_steps, "rotational transform")
+        try:
+            for lo, hi in _chunks(N, C):
+                x = jnp.asarray(_pad(pts[lo:hi], C))
+                st = jnp.zeros(C, jnp.int32)
+                sums = jnp.zeros((C, 6))
+                done = 0
+                while done < n_steps:
+                    x, st, sums = _iota_scan(fn, seg, toroidal, ax, x, st, sums, jnp.asarray(done),
+                                             jnp.asarray(n_steps), jnp.asarray(float(h)))
+                    L = min(seg, n_steps - done)
+                    done += L
+                    bar.update((hi - lo) * L)
+                sums_all[lo:hi] = np.asarray(sums)[: hi - lo]
+                status[lo:hi] = np.asarray(st)[: hi - lo]
+        finally:
+            bar.close()
+        return sums_all, status
+
+    # the bare method first; the recovering one only if a bare step failed (as poincare_section)
+    sums_all, status = bare_first(run, method, lambda r: bool(np.all(r[1] == RESULTS.successful)))
     ok = status == RESULTS.successful
     with np.errstate(divide="ignore", invalid="ignore"):
         iota = np.where(ok, sums_all[:, 0] / sums_all[:, 1], np.nan)

@@ -24,6 +24,7 @@ import numpy as np
 from jax import lax
 
 from .._errors import RESULTS
+from .._recovery import bare_method
 from ..diagnostics._surfaces import wrap_angle
 from ._geometry import is_toroidal
 
@@ -50,7 +51,9 @@ class ReturnMap:
             raise ValueError(f"sign must be +1 or -1; got {sign!r}")
         if not (h > 0 and math.isfinite(h)):
             raise ValueError(f"h must be a positive number; got {h!r}")
-        self.method, self.h, self.nfp, self.sign = method, float(h), int(nfp), int(sign)
+        # the bare method: a fixed point needs one smooth map (a recovered step would switch maps);
+        # a failed step is reported by the status instead
+        self.method, self.h, self.nfp, self.sign = bare_method(method), float(h), int(nfp), int(sign)
         self.period = 2 * math.pi / self.nfp
         self.phi0 = float(phi)
         self.max_steps = int(max_steps)
@@ -100,25 +103,35 @@ class ReturnMap:
             cond, body, (x, x, zero, zero, jnp.int32(0), jnp.int32(RESULTS.successful)))
         st = jnp.where((st == RESULTS.successful) & (s * (ph - target) < 0), NO_RETURN, st)
 
-        def g(th, xp):  # angle past the target after a sub-step θh from x_n
-            Y, _ = step(xp, th * h)
-            return php + self._dphi(Y, xp) - target
-
+        # locate θ ∈ [0, 1] with φ(Ψ_{θh}(x_n)) = target: Newton on θ from the chord, each iteration
+        # one forward-mode step (value and ∂/∂θ together), safeguarded to the bracket [0, 1]
         xs = lax.stop_gradient(xp)
         g0, g1 = lax.stop_gradient(php - target), lax.stop_gradient(ph - target)
 
-        def rf_body(c, _):  # Illinois regula falsi on θ ∈ [0, 1], derivative-free
-            a, fa, b, fb = c
-            t = jnp.clip((a * fb - b * fa) / jnp.where(fb == fa, 1.0, fb - fa), jnp.minimum(a, b), jnp.maximum(a, b))
-            ft = g(t, xs)
-            same = jnp.sign(ft) == jnp.sign(fb)
-            return (jnp.where(same, a, b), jnp.where(same, fa * 0.5, fb), t, ft), None
+        def sub(th, xp):  # Ψ_{θh}(x_n), d/dθ of it, and the sub-step's status
+            return jax.jvp(lambda t: step(xp, t * h), (th,), (jnp.ones(()),), has_aux=True)
 
-        (a, fa, b, fb), _ = lax.scan(rf_body, (0.0, g0, 1.0, g1), None, length=40)
-        th0 = lax.stop_gradient(jnp.where(jnp.abs(fa) < jnp.abs(fb), a, b))
-        gth = lax.stop_gradient(jax.jvp(lambda t: g(t, xs), (th0,), (jnp.ones(()),))[1])
-        th = th0 - g(th0, xp) / gth  # one Newton polish: exact IFT derivative under jacfwd
-        Y, sY = step(xp, th * h)
+        def gap(Y, dY, xp):  # angle past the target and its θ-derivative
+            if self.toroidal:
+                return php + Y[1] - xp[1] - target, dY[1]
+            r2 = Y[0] ** 2 + Y[1] ** 2
+            return php + self._dphi(Y, xp) - target, (Y[0] * dY[1] - Y[1] * dY[0]) / r2
+
+        def newton(th, _):
+            Y, dY, _ = sub(th, xs)
+            gv, gd = gap(Y, dY, xs)
+            t_new = th - gv / jnp.where(gd == 0, 1.0, gd)
+            return jnp.clip(jnp.where(jnp.isfinite(t_new), t_new, th), 0.0, 1.0), None
+
+        th_chord = jnp.clip(g0 / jnp.where(g0 == g1, 1.0, g0 - g1), 0.0, 1.0)
+        th0, _ = lax.scan(newton, th_chord, None, length=8)
+        th0 = lax.stop_gradient(th0)
+        # the polish, differentiable: Y = Ψ_{θ0 h}(x_n) + (θ − θ0)·∂_θΨ with θ = θ0 − g/g_θ (g_θ held
+        # constant), so that the derivative of Y in x is the implicit-function one, dθ/dx = −g_x/g_θ
+        Y0, dY, sY = sub(th0, xp)
+        gv, gd = gap(Y0, dY, xp)
+        dY, gd = lax.stop_gradient(dY), lax.stop_gradient(gd)
+        Y = Y0 - (gv / gd) * dY
         st = jnp.where((st == RESULTS.successful) & (sY != RESULTS.successful), sY, st)
         return self.rz(Y), st
 
@@ -126,12 +139,14 @@ class ReturnMap:
         return self._call(z)
 
     def power(self, z, m: int):
-        """Pᵐ(z) and the first failure status (jit-able)."""
-        st = jnp.int32(RESULTS.successful)
-        for _ in range(int(m)):
+        """Pᵐ(z) and the first failure status (jit-able; one copy of the map, m iterations)."""
+        def body(c, _):
+            z, st = c
             z2, s = self._map(z)
-            st = jnp.where(st == RESULTS.successful, s, st)
-            z = z2
+            return (z2, jnp.where(st == RESULTS.successful, s, st)), None
+
+        (z, st), _ = lax.scan(body, (jnp.asarray(z, jnp.float64), jnp.int32(RESULTS.successful)), None,
+                              length=int(m))
         return z, st
 
     def orbit(self, z, m: int) -> np.ndarray:
