@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["poincare_figure", "order_figure", "drift_figure", "save"]
+__all__ = ["poincare_figure", "order_figure", "drift_figure", "fieldline_figure", "iota_figure", "save"]
 
 _SUB = str.maketrans("0123456789", "₀₁₂₃₄₅₆₇₈₉")
 
@@ -190,5 +190,53 @@ def drift_figure(
         ax.legend(fontsize=8, loc="best", framealpha=0.85)
     if title:
         fig.suptitle(title, fontsize=11)
+    save(fig, path)
+    return fig
+
+
+def fieldline_figure(section: Any, axis: Any = None, fixed_points: Sequence[Any] = (), wall: Any = None,
+                     title: str | None = None, path: str | None = None):
+    """A toroidal Poincaré section in (R, Z) (:class:`~vpforms.fieldlines.ToroidalSection`), coloured
+    by line, with the magnetic axis (×), island O-points (○) and X-points (✕), and the wall."""
+    fig = _figure(6.0, 6.4)
+    ax = fig.add_subplot(1, 1, 1)
+    n = int(section.line.max()) + 1 if len(section) else 1
+    size = float(np.clip(2e4 / max(len(section), 1), 0.6, 6.0))  # few points: bigger dots
+    ax.scatter(section.R, section.Z, c=section.line, s=size, cmap="viridis", vmin=0, vmax=max(n - 1, 1),
+               linewidths=0, rasterized=True)
+    if wall is not None:
+        ax.plot(wall.R, wall.Z, "k-", lw=1.0, label="wall")
+    if axis is not None:
+        ax.plot([axis.R], [axis.Z], "r+", ms=12, mew=2, label=f"axis (ι = {axis.iota:.6g})")
+    for kind, marker in (("O", "o"), ("X", "x")):
+        pts = [p for p in fixed_points if p.kind == kind]
+        if pts:
+            orbit = np.concatenate([p.orbit for p in pts])
+            ax.plot(orbit[:, 0], orbit[:, 1], marker, color="C3", ms=7, mfc="none", mew=1.6,
+                    label=f"{kind}-points (m = {pts[0].m})")
+    ax.set_xlabel("R")
+    ax.set_ylabel("Z")
+    ax.set_aspect("equal", adjustable="datalim")
+    if axis is not None or fixed_points or wall is not None:
+        ax.legend(loc="upper right", fontsize=8)
+    ax.set_title(title or f"section φ = {section.phi0:.4g}", fontsize=10)
+    save(fig, path)
+    return fig
+
+
+def iota_figure(iota: Any, title: str | None = None, path: str | None = None):
+    """ι and q = 1/ι against the starting radius R (:class:`~vpforms.fieldlines.Iota`), with the
+    Birkhoff error estimate as error bars."""
+    fig = _figure(7.0, 4.2)
+    a1 = fig.add_subplot(1, 2, 1)
+    a2 = fig.add_subplot(1, 2, 2)
+    ok = np.isfinite(iota.iota)
+    a1.errorbar(iota.R0[ok], iota.iota[ok], yerr=iota.error[ok], fmt=".-", ms=4, lw=0.8)
+    a1.set_xlabel("R (start, Z = axis)")
+    a1.set_ylabel("ι")
+    a2.plot(iota.R0[ok], iota.q[ok], ".-", ms=4, lw=0.8, color="C1")
+    a2.set_xlabel("R (start, Z = axis)")
+    a2.set_ylabel("q = 1/ι")
+    fig.suptitle(title or "rotational transform (weighted Birkhoff average)", fontsize=10)
     save(fig, path)
     return fig

@@ -1,7 +1,8 @@
 """The ``vpforms`` command line (argparse + rich), one module per subcommand group.
 
 Subcommands: ``cases``, ``classify``, ``errata`` (:mod:`.tables`); ``run``, ``poincare``
-(:mod:`.trace`); ``order``, ``drift`` (:mod:`.studies`); ``demo`` (:mod:`.demo`) — each with
+(:mod:`.trace`); ``order``, ``drift`` (:mod:`.studies`); ``fieldlines`` (:mod:`.fieldlines`); ``demo``
+(:mod:`.demo`) — each with
 ``--help``. Each group module has ``register(sub)`` adding its subparsers; shared parsing and
 method construction live in :mod:`._common`. ``main(argv) -> int`` never raises for bad input: it
 prints one line ``vpforms: error: …`` and returns 2 (usage) or 1 (a failed computation).  Set
@@ -14,13 +15,13 @@ import argparse
 import os
 import sys
 
-from . import demo, studies, tables, trace
+from . import demo, fieldlines, studies, tables, trace
 from ._common import CLIError, _Parser
 
 __all__ = ["main", "build_parser", "CLIError"]
 
 #: the subcommand groups, in the order ``vpforms --help`` lists them
-GROUPS = (tables, trace, studies, demo)
+GROUPS = (tables, trace, studies, fieldlines, demo)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -95,6 +95,17 @@ def _float_list(text: str) -> list[float]:
     return vals
 
 
+def _finite_list(text: str) -> list[float]:
+    """A comma-separated list of finite numbers (any sign), e.g. a polygon R1,Z1,R2,Z2,…"""
+    try:
+        vals = [float(t) for t in text.split(",") if t.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a comma-separated list of numbers") from None
+    if not vals or not all(math.isfinite(v) for v in vals):
+        raise argparse.ArgumentTypeError(f"{text!r} must list finite numbers")
+    return vals
+
+
 # --------------------------------------------------------------------------------------------
 # Problems and methods (the APIs of issues #4 and #5)
 # --------------------------------------------------------------------------------------------

@@ -2,8 +2,10 @@
 
 A fixed point z* = Pᵐ(z*) is found by Newton's method on F(z) = Pᵐ(z) − z with the exact Jacobian
 DPᵐ of the discrete map (forward-mode AD through the steps, :mod:`._returnmap`), with step halving
-when the residual grows. Its type comes from the tangent map M = DPᵐ(z*) (det M = 1 at a fixed
-point of an area-preserving map, in any coordinates): Greene's residue
+when the residual grows. Its type comes from the tangent map M = DPᵐ(z*) — det M = 1 at a fixed
+point of an area-preserving map, in any coordinates; the discrete section map is area preserving up
+to the location of the crossing on the step family, O(h^{p+1}) (det M − 1 = 6e-7 measured for the
+m = 2 islands of the tokamak, order 2, h = 0.05) — by Greene's residue
 
     Res = (2 − tr M)/4:   0 < Res < 1 elliptic (O-point),  Res < 0 or Res > 1 hyperbolic (X-point),
 

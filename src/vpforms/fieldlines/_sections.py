@@ -47,6 +47,14 @@ class ToroidalSection:
         k = self.line == i
         return self.R[k], self.Z[k]
 
+    def before(self, t_stop: np.ndarray) -> "ToroidalSection":
+        """The crossings of each line i at times t < t_stop[i] (e.g. ``WallHits.t_exit``; NaN or
+        +inf: all of that line's crossings)."""
+        stop = np.where(np.isfinite(t_stop), t_stop, np.inf)
+        k = self.t < stop[self.line]
+        return ToroidalSection(R=self.R[k], Z=self.Z[k], line=self.line[k], transit=self.transit[k], phi=self.phi[k],
+                               t=self.t[k], status=self.status, phi0=self.phi0, nfp=self.nfp, section=self.section)
+
     def to_csv(self, path: str) -> None:
         """Write line, transit, phi, t, R, Z (one row per crossing)."""
         data = np.column_stack([self.line, self.transit, self.phi, self.t, self.R, self.Z])

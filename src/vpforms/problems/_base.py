@@ -59,6 +59,8 @@ class Problem:
     sampler: Callable[[np.random.Generator, int], np.ndarray] | None = field(
         default=None, repr=False
     )
+    #: for toroidal fields: a guess (R, Z) of the magnetic axis on φ = 0 (field-line studies, #21)
+    axis_guess: tuple | None = None
 
     def initial_conditions(self, n: int, seed: int = 0) -> np.ndarray:
         """n seeded initial conditions in the problem's natural region, shape (n, 3)."""

@@ -74,27 +74,39 @@ def _x0(R_axis: float, offsets) -> np.ndarray:
                                         np.zeros(len(offsets))]))
 
 
+def spline_coil_field(coils: CoilSet, R: tuple, Z: tuple, *, n_R: int = 40, n_phi: int = 32, n_Z: int = 40,
+                      name: str = "coils", margin: float = 0.02) -> tuple:
+    """The field lines of a coil set in (u = R²/2, φ, Z): the coils' vector potential sampled on an
+    n_R × n_phi × n_Z grid of the (R, Z) box over one field period and splined (exact
+    antiderivatives, B = ∇×A exactly divergence free); returns (field, spline_error) with
+    spline_error = max|B_spline − B_coils|/max|B_coils| at 400 seeded points of the box less
+    ``margin`` (in the units of R and Z) on each side."""
+    nfp = coils.nfp
+    Rn, Zn = np.linspace(*R, n_R), np.linspace(*Z, n_Z)
+    phin = 2 * np.pi / nfp * np.arange(n_phi) / n_phi
+    pot, _ = cylindrical_potential(Rn, phin, Zn, nfp=nfp, A=_sample_A(coils, Rn, phin, Zn), source=f"{name} coils")
+    field = toroidal_field(pot, pot.grid_box, nfp=nfp, name=name, origin=pot.center)
+    field.domain_check, field.inside = _covers(pot), pot.inside
+    return field, _spline_error(field, coils, None, (R[0] + margin, R[1] - margin), (Z[0] + margin, Z[1] - margin),
+                                nfp)
+
+
 def make_stellarator(*, n_R: int = 40, n_phi: int = 32, n_Z: int = 40, R: tuple = (0.80, 1.18),
                      Z: tuple = (-0.18, 0.18), **coil_params) -> Problem:
     """The l = 2 stellarator's field lines (module docstring); ``coil_params`` go to
     :func:`vpforms.coils.l2_stellarator`, the grid is n_R × n_phi × n_Z nodes over one period."""
     coils = l2_stellarator(**coil_params)
     nfp = coils.nfp
-    Rn, Zn = np.linspace(*R, n_R), np.linspace(*Z, n_Z)
-    phin = 2 * np.pi / nfp * np.arange(n_phi) / n_phi
-    pot, _ = cylindrical_potential(Rn, phin, Zn, nfp=nfp, A=_sample_A(coils, Rn, phin, Zn),
-                                   source="l2_stellarator coils")
-    field = toroidal_field(pot, pot.grid_box, nfp=nfp, name="coil_stellarator", origin=pot.center)
-    field.domain_check, field.inside = _covers(pot), pot.inside
-    err = _spline_error(field, coils, None, (R[0] + 0.02, R[1] - 0.02), (Z[0] + 0.02, Z[1] - 0.02), nfp)
+    field, err = spline_coil_field(coils, R, Z, n_R=n_R, n_phi=n_phi, n_Z=n_Z, name="coil_stellarator")
     return Problem(
         name="coil_stellarator", field=field,
         params={"grid": f"{n_R}x{n_phi}x{n_Z}", "spline_error": err, "nfp": nfp, **coil_params},
         x0=_x0(0.983112, [0.02, 0.04, 0.08, 0.12, 0.14]),
         invariants={}, invariant_exprs={}, source=SOURCE,
-        periodic=(None, 2 * np.pi / nfp, None), box=pot.grid_box,
+        periodic=(None, 2 * np.pi / nfp, None), box=field.box,
         description="l = 2, m = 5 stellarator coils: field lines in (u = R²/2, φ, Z)",
         sampler=_midplane_sampler(0.983112, 0.02, 0.14),
+        axis_guess=(0.983112, 0.0),
     )
 
 
@@ -128,6 +140,7 @@ def make_tokamak(*, n_R: int = 48, n_phi: int = 12, n_Z: int = 48, R: tuple = (0
         periodic=(None, 2 * np.pi / nfp, None), box=pot.grid_box,
         description="circular tokamak coils + exact plasma ring: field lines in (u = R²/2, φ, Z)",
         sampler=_midplane_sampler(R_ring, 0.10, 0.30),
+        axis_guess=(R_ring, z_ring),
     )
 
 

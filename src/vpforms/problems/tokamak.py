@@ -175,6 +175,7 @@ def make(R0=None, B0=None, eps=None, m=None, n=None, coordinates: str = "cartesi
         box=box,
         description=f"toroidal field-line model with ({m},{n}) islands",
         sampler=sampler,
+        axis_guess=(r0, 0.0),
     )
 
 

@@ -1,0 +1,187 @@
+"""``vpforms fieldlines``: the field-line study of a toroidal field (issue #21).
+
+A Poincaré section at φ = const in (R, Z), the magnetic axis (fixed point of the return map, its
+ι from the tangent map), the ι/q profile of the traced lines (weighted Birkhoff averages), optional
+island chains (fixed points of Pᵐ) and a wall polygon; two PNGs and a CSV of the section points.
+The field is a library problem (``--problem``: tokamak — in (u, φ, Z) —, coil_tokamak,
+coil_stellarator), a MAKEGRID coils file (``--coils``) or an mgrid netCDF file (``--mgrid``).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from ._common import (
+    CLIError,
+    _add_method_args,
+    _check_out,
+    _finite_list,
+    _method_from_args,
+    _parse_params,
+    _positive_float,
+    _positive_int,
+    _summary_table,
+)
+
+
+def _field_source(args):
+    """(field, nfp, axis guess, default start radii span, name) of the chosen source."""
+    from .. import problems
+
+    if args.coils and args.mgrid:
+        raise CLIError("give one of --coils and --mgrid, not both")
+    guess = tuple(args.axis_guess) if args.axis_guess else None
+    if args.coils or args.mgrid:
+        if args.coils:
+            from ..coils import read_makegrid
+            from ..problems.coil_fields import spline_coil_field
+
+            if not (args.R and args.Z):
+                raise CLIError("--coils needs the grid box: --R RMIN,RMAX --Z ZMIN,ZMAX")
+            coils = read_makegrid(args.coils)
+            field, err = spline_coil_field(coils, tuple(args.R), tuple(args.Z), n_R=args.grid[0], n_phi=args.grid[1],
+                                           n_Z=args.grid[2], name=args.coils)
+            name = f"{args.coils} (spline error {err:.2e})"
+        else:
+            from ..grids import gridded_field
+
+            field = gridded_field(args.mgrid)
+            name = args.mgrid
+        P = field.periods[1] or 2 * math.pi
+        nfp = int(round(2 * math.pi / P))
+        if guess is None:
+            raise CLIError("--coils/--mgrid need --axis-guess R,Z (a point near the magnetic axis on φ = 0)")
+        return field, nfp, guess, None, name
+    params = _parse_params(args.param)
+    key = args.problem.lower().replace("-", "_")
+    if key == "tokamak":
+        params.setdefault("coordinates", "toroidal")
+    try:
+        prob = problems.get(key, **params)
+    except (KeyError, TypeError, ValueError) as exc:
+        raise CLIError(f"problem {args.problem!r}: {exc}") from None
+    if not str(getattr(prob.field, "coordinates", "")).startswith("toroidal") and key != "tokamak":
+        raise CLIError(f"problem {args.problem!r} is not a toroidal field (use tokamak, coil_tokamak or coil_stellarator)")
+    P = prob.field.periods[1] or 2 * math.pi
+    nfp = int(round(2 * math.pi / P))
+    guess = guess or prob.axis_guess
+    if guess is None:
+        raise CLIError(f"problem {args.problem!r} has no axis guess: give --axis-guess R,Z")
+    from ..fieldlines import cylindrical
+
+    R = np.asarray(cylindrical(prob.x0, True)[0]) if prob.field.coordinates.startswith("toroidal") else \
+        np.hypot(prob.x0[:, 0], prob.x0[:, 1])
+    return prob.field, nfp, guess, (float(R.min() - guess[0]), float(R.max() - guess[0])), prob.name
+
+
+def _cmd_fieldlines(args, console) -> int:
+    from .. import plots
+    from ..fieldlines import (
+        Wall,
+        island_chain,
+        magnetic_axis,
+        return_map,
+        rotational_transform,
+        toroidal_section,
+        trace_to_wall,
+    )
+
+    _check_out(args.png, args.iota_png, args.csv)
+    field, nfp, guess, span, name = _field_source(args)
+    method = _method_from_args(args, field)
+    t_all = time.perf_counter()
+    t = time.perf_counter()
+    P = return_map(method, args.h, args.phi, nfp, guess=guess)
+    axis = magnetic_axis(method, guess, args.h, args.phi, nfp, return_map_=P)
+    t_axis = time.perf_counter() - t
+    # start points on the line Z = Z_axis of the section, outboard of the axis
+    if args.radii:
+        dr = np.asarray(args.radii, float)
+    else:
+        lo, hi = span if span is not None else (0.02, 0.2)
+        dr = np.linspace(max(lo, 1e-3), hi, args.lines)
+    Rs = axis.R + dr
+    x0 = np.stack([P.state(np.array([r, axis.Z])) for r in Rs])
+    x0 = np.asarray(x0, float)
+    per_step = abs(float(P._dphi(method.step_with_status(x0[0], args.h)[0], x0[0])))
+    steps = max(2, int(math.ceil(args.transits * 2 * math.pi / (per_step))))
+    t = time.perf_counter()
+    sec = toroidal_section(method, x0, args.h, steps, phi=args.phi, nfp=nfp, progress="auto")
+    t_sec = time.perf_counter() - t
+    t = time.perf_counter()
+    iota = rotational_transform(method, x0, args.h, steps, axis, progress="auto")
+    t_iota = time.perf_counter() - t
+    chains = []
+    if args.islands:
+        lo, hi = (args.island_range if args.island_range else (Rs.min(), Rs.max()))
+        chains = island_chain(method, args.islands, args.h, np.linspace(lo, hi, args.island_scan), axis.Z, args.phi, nfp)
+    wall = None
+    hits = None
+    if args.wall:
+        v = np.asarray(args.wall, float)
+        if v.size % 2 or v.size < 8:
+            raise CLIError("--wall takes R1,Z1,R2,Z2,… (a closed polygon: the last vertex repeats the first)")
+        wall = Wall(v[0::2], v[1::2])
+        hits = trace_to_wall(method, x0, args.h, steps, wall, progress="auto")
+        sec = sec.before(hits.t_exit)  # a line ends where it meets the wall
+    sec.to_csv(args.csv)
+    title = f"{name}: {sec.section.method}, h = {args.h:g}, {args.transits:g} transits"
+    plots.fieldline_figure(sec, axis, chains, wall, title=title, path=args.png)
+    plots.iota_figure(iota, title=f"ι profile — {name}", path=args.iota_png)
+    rows = {
+        "field": name,
+        "method": sec.section.method,
+        "section": f"φ = {sec.phi0:.6g} (mod 2π/{nfp})",
+        "lines × steps": f"{len(x0)} × {steps} (h = {args.h:g}, ≈ {args.transits:g} transits)",
+        "magnetic axis (R, Z)": f"({axis.R:.10g}, {axis.Z:.3g}), residual {axis.residual:.1e}, {axis.kind}",
+        "ι on the axis (tangent map)": f"{axis.iota:.10g} (q = {axis.q:.10g})",
+        "ι of the lines": f"{np.nanmin(iota.iota):.6g} … {np.nanmax(iota.iota):.6g} "
+                          f"(max Birkhoff error estimate {np.nanmax(iota.error):.1e})",
+        "crossings": len(sec),
+        "failed lines": int(np.count_nonzero(sec.status != 0)),
+        "wall time (s): axis / section / ι / total": f"{t_axis:.1f} / {t_sec:.1f} / {t_iota:.1f} / "
+                                                     f"{time.perf_counter() - t_all:.1f}",
+    }
+    for fp in chains:
+        rows[f"{fp.kind}-point, m = {fp.m}"] = f"({fp.R:.8g}, {fp.Z:.3g}), residue {fp.residue:.4g}"
+    if hits is not None:
+        rows["lines that hit the wall"] = f"{int(hits.hit.sum())} of {len(x0)}" + (
+            f", median connection length {np.median(hits.connection_length[hits.hit]):.4g}" if hits.hit.any() else "")
+    console.print(_summary_table("vpforms fieldlines", rows))
+    console.print(f"section: {args.png}\nι profile: {args.iota_png}\nsection points CSV: {args.csv}", soft_wrap=True)
+    return 0
+
+
+def register(sub) -> None:
+    """Add the ``fieldlines`` subcommand."""
+    p = sub.add_parser("fieldlines", help="field-line study of a toroidal field: section, axis, ι, islands, wall",
+                       description="Poincaré section at φ = const in (R, Z), magnetic axis and its ι (tangent "
+                                   "map of the return map), ι/q profile of the lines (weighted Birkhoff "
+                                   "averages), optional island chains and wall; PNGs and a CSV.")
+    p.add_argument("--problem", default="tokamak",
+                   help="tokamak (in u = R²/2, φ, Z), coil_tokamak or coil_stellarator; default tokamak")
+    p.add_argument("--param", action="append", metavar="NAME=VALUE", help="problem parameter, e.g. --param eps=0")
+    p.add_argument("--coils", default=None, metavar="FILE", help="a MAKEGRID coils file (with --R, --Z, --axis-guess)")
+    p.add_argument("--mgrid", default=None, metavar="FILE", help="an mgrid netCDF file (with --axis-guess)")
+    p.add_argument("--R", type=_finite_list, default=None, help="R range of the coils' spline grid: RMIN,RMAX")
+    p.add_argument("--Z", type=_finite_list, default=None, help="Z range of the coils' spline grid: ZMIN,ZMAX")
+    p.add_argument("--grid", type=lambda s: tuple(int(v) for v in s.split("x")), default=(40, 32, 40),
+                   help="spline grid of --coils: NRxNPHIxNZ (default 40x32x40)")
+    _add_method_args(p, default_order=2)
+    p.add_argument("--h", type=_positive_float, default=0.05, help="step size (default 0.05)")
+    p.add_argument("--transits", type=_positive_float, default=100.0, help="toroidal transits (default 100)")
+    p.add_argument("--lines", type=_positive_int, default=12, help="field lines (default 12)")
+    p.add_argument("--radii", type=_finite_list, default=None, help="start offsets R − R_axis (default: a spread)")
+    p.add_argument("--phi", type=float, default=0.0, help="section angle φ₀ (default 0)")
+    p.add_argument("--axis-guess", type=_finite_list, default=None, help="R,Z near the axis on φ₀")
+    p.add_argument("--islands", type=_positive_int, default=None, metavar="M", help="find the m-island chains")
+    p.add_argument("--island-range", type=_finite_list, default=None, help="RMIN,RMAX of the island scan")
+    p.add_argument("--island-scan", type=_positive_int, default=33, help="scan points (default 33)")
+    p.add_argument("--wall", type=_finite_list, default=None, help="closed (R, Z) polygon R1,Z1,…,R1,Z1")
+    p.add_argument("--png", default="vpforms-fieldlines.png", help="section figure")
+    p.add_argument("--iota-png", default="vpforms-iota.png", help="ι profile figure")
+    p.add_argument("--csv", default="vpforms-fieldlines.csv", help="section points CSV")
+    p.set_defaults(func=_cmd_fieldlines)
