@@ -81,3 +81,18 @@ def test_bench_guard_smoke(tmp_path):
     assert rows and rows[0][1].strip() == "jax"
     for r in rows:  # where nothing fails the guard changes no step: rounding-level differences only
         assert float(r[7]) < 1e-12 and int(r[8]) == 0
+
+
+@pytest.mark.slow
+def test_bench_fieldlines_smoke(tmp_path):
+    text = _smoke("bench_fieldlines", tmp_path)
+    labels = _row_labels(text)
+    for needle in ("integrate, JAX", "toroidal_section", "rotational_transform", "trace_to_wall"):
+        assert any(needle in lab for lab in labels), needle
+    assert "Magnetic axis" in text
+
+
+@pytest.mark.slow
+def test_bench_orders_smoke(tmp_path):
+    text = _smoke("bench_orders", tmp_path)
+    assert "kahan_li" in text and "order" in text

@@ -173,6 +173,10 @@ def _tangent_winding(P: ReturnMap, z, n_periods: int) -> float:
         phi = phi + P._dphi(X, x)
         return (X, V / jnp.linalg.norm(V), ang, phi), None
 
+    cache = P.__dict__.setdefault("_jit_cache", {})
+    if ("wind", n) in cache:
+        return float(cache[("wind", n)](jnp.asarray(z)))
+
     @jax.jit
     def run(z):
         x = P.state(z)
@@ -181,6 +185,7 @@ def _tangent_winding(P: ReturnMap, z, n_periods: int) -> float:
         (x, v, ang, phi), _ = jax.lax.scan(body, (x, v, 0.0, 0.0), None, length=n)
         return ang / phi
 
+    cache[("wind", n)] = run
     return float(run(jnp.asarray(z)))
 
 
@@ -218,7 +223,8 @@ def scan_fixed_points(P: ReturnMap, m: int, R: Any, Z: float = 0.0, *, tol: floa
     """The fixed points of Pᵐ found by Newton from the local minima of |Pᵐ(z) − z| along the
     line Z = const at the radii R (a scan of the midplane); duplicates (points of one chain) merged."""
     R = np.asarray(R, float)
-    fm = jax.jit(jax.vmap(lambda z: P.power(z, m)))
+    cache = P.__dict__.setdefault("_jit_cache", {})
+    fm = cache.setdefault(("scan", m), jax.jit(jax.vmap(lambda z: P.power(z, m))))
     zs = np.stack([R, np.full_like(R, Z)], axis=1)
     z2, st = fm(jnp.asarray(zs))
     d = np.linalg.norm(np.asarray(z2) - zs, axis=1)

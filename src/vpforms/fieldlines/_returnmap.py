@@ -190,4 +190,17 @@ def return_map(method: Any, h: float, phi: float = 0.0, nfp: int = 1, *, guess: 
                          "so it has no φ-return map")
     if max_steps is None:
         max_steps = int(20 * (2 * math.pi / nfp) / (abs(dphi) * h)) + 100
-    return ReturnMap(method, h, phi, nfp, sign=int(np.sign(dphi)), max_steps=max_steps)
+    # one ReturnMap (and its compiled functions) per method and parameters: studies reuse them
+    key = (id(method), float(h), float(phi), int(nfp), int(np.sign(dphi)), int(max_steps))
+    hit = _MAPS.get(key)
+    if hit is not None and hit[0] is method:
+        return hit[1]
+    P = ReturnMap(method, h, phi, nfp, sign=int(np.sign(dphi)), max_steps=max_steps)
+    if len(_MAPS) >= 32:
+        _MAPS.pop(next(iter(_MAPS)))
+    _MAPS[key] = (method, P)
+    return P
+
+
+#: (id(method), h, φ₀, nfp, sign, max_steps) → (method, ReturnMap): the method is kept so its id stays valid
+_MAPS: dict = {}
