@@ -29,8 +29,8 @@ from vpforms import problems  # noqa: E402
 from vpforms.fieldlines import Wall, magnetic_axis, rotational_transform, toroidal_section, trace_to_wall  # noqa: E402
 
 
-def main() -> None:
-    args = parser(__doc__, "results_fieldlines.md", rounds=3).parse_args()
+def main(argv=None) -> int:
+    args = parser(__doc__, "results_fieldlines.md", rounds=3).parse_args(argv)
     t_start = time.perf_counter()
     N, S = (4, 64) if args.smoke else (100, 2000)
     rounds = 1 if args.smoke else args.rounds
@@ -89,7 +89,8 @@ def main() -> None:
     with open(args.out, "w") as f:
         f.write(text)
     print(text)
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())
