@@ -387,6 +387,7 @@ def check_order_two(tok):
     assert np.all((3.0 <= ratio) & (ratio <= 5.0)), (errs, ratio)
 
 
+@pytest.mark.slow
 def test_tokamak_wall(tok):
     """SE+SE (composed, order 2) on the unperturbed tokamak, a box that cuts some flux surfaces: the
     three checks above in one test, so that the method compiles once (on one xdist worker)."""
