@@ -17,7 +17,7 @@ import time
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # benchmarks/_bench.py
-from _bench import machine, parser  # noqa: E402
+from _bench import machine, parser, write_results  # noqa: E402
 
 from vpforms import compose, integrate, scheme
 from vpforms.problems import get
@@ -85,10 +85,7 @@ def main(argv=None) -> int:
             cells = [f"{best[(label, k), N]:,.0f} ({best[(label, k), N] / b1:.2f}×)" for k in (1, 2, 4)]
             lines.append(f"| {label} | {N:,} | " + " | ".join(cells) + " |")
     lines += ["", f"Check: max |fast − generic| after one step, orders 1, 2, 4, 16 points = {diff:.1e} (the same map)", ""]
-    with open(args.out, "w") as fh:
-        fh.write("\n".join(lines))
-    print("\n".join(lines))
-    return 0
+    return write_results(args.out, "\n".join(lines))
 
 
 if __name__ == "__main__":

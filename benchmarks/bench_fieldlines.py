@@ -22,7 +22,7 @@ import time
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # benchmarks/_bench.py
-from _bench import best_of, machine, parser  # noqa: E402
+from _bench import best_of, machine, parser, write_results  # noqa: E402
 
 import vpforms  # noqa: E402
 from vpforms import problems  # noqa: E402
@@ -85,11 +85,7 @@ def main(argv=None) -> int:
         "",
         "The native backend does not run these studies yet (JAX only).",
     ]
-    text = "\n".join(lines) + "\n"
-    with open(args.out, "w") as f:
-        f.write(text)
-    print(text)
-    return 0
+    return write_results(args.out, "\n".join(lines) + "\n")
 
 
 if __name__ == "__main__":

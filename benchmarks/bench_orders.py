@@ -22,7 +22,7 @@ import warnings
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # benchmarks/_bench.py
-from _bench import machine, parser
+from _bench import machine, parser, write_results
 
 from vpforms import compose, integrate, scheme
 from vpforms._methods.compose import stages
@@ -219,10 +219,7 @@ def main(argv=None) -> int:
             lines.append(f"* {label(order, name)} ({s} stages): "
                          + ", ".join(f"{n}: {e:.1e}" if np.isfinite(e) else f"{n}: failed" for n, e in rows))
         lines.append("")
-    with open(args.out, "w") as fh:
-        fh.write("\n".join(lines))
-    print("\n".join(lines))
-    return 0
+    return write_results(args.out, "\n".join(lines))
 
 
 if __name__ == "__main__":
