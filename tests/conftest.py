@@ -13,6 +13,7 @@ unless it is marked, or listed here.
 """
 
 import codecs
+import os
 import re
 from pathlib import Path
 
@@ -123,7 +124,6 @@ def pytest_collection_modifyitems(config, items):
 @pytest.fixture(scope="module")
 def isolated_native_cache(tmp_path_factory):
     """A fresh native kernel cache (VPFORMS_NATIVE_CACHE) for one test module, restored after."""
-    import os
 
     d = tmp_path_factory.mktemp("native_cache")
     old = os.environ.get("VPFORMS_NATIVE_CACHE")
@@ -133,3 +133,44 @@ def isolated_native_cache(tmp_path_factory):
         os.environ.pop("VPFORMS_NATIVE_CACHE", None)
     else:
         os.environ["VPFORMS_NATIVE_CACHE"] = old
+
+
+# ------------------------------------------------------------------------- compiled-code budget
+# An xdist worker runs hundreds of tests in one process and every jit compile stays cached: each
+# XLA executable maps ~3 memory regions, and the verification tier compiled enough to approach
+# Linux's vm.max_map_count (65530) and several GB per worker; a worker then died inside an XLA
+# compile (abort/segfault, CI of stop 27). Past either budget the caches are dropped between tests
+# (the next use recompiles): numbers are unchanged, only compile time is paid again.
+MAX_MAPS = 24_000
+MAX_RSS_BYTES = 5 * 2**30
+
+
+def _maps_and_rss() -> tuple[int, int]:
+    """(memory mappings, resident bytes) of this process; (0, 0) where /proc is absent."""
+    try:
+        with open("/proc/self/maps", "rb") as fh:
+            maps = fh.read().count(b"\n")
+        with open("/proc/self/statm", "rb") as fh:
+            rss = int(fh.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+    except OSError:
+        return 0, 0
+    return maps, rss
+
+
+_FLOOR = {"maps": MAX_MAPS, "rss": MAX_RSS_BYTES}  # raised to what a clear leaves, plus a margin
+
+
+@pytest.fixture(autouse=True)
+def _bounded_compiled_code():
+    yield
+    maps, rss = _maps_and_rss()
+    if maps > _FLOOR["maps"] or rss > _FLOOR["rss"]:
+        import gc
+
+        import jax
+
+        jax.clear_caches()
+        gc.collect()
+        maps, rss = _maps_and_rss()  # what is left (malloc may keep freed pages): clear again only
+        _FLOOR["maps"] = max(MAX_MAPS, maps + MAX_MAPS // 2)  # after as much new growth
+        _FLOOR["rss"] = max(MAX_RSS_BYTES, rss + MAX_RSS_BYTES // 2)
