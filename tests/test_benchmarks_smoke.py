@@ -96,3 +96,10 @@ def test_bench_fieldlines_smoke(tmp_path):
 def test_bench_orders_smoke(tmp_path):
     text = _smoke("bench_orders", tmp_path)
     assert "kahan_li" in text and "order" in text
+
+
+def test_bench_distributed_smoke(tmp_path):
+    pytest.importorskip("dask.distributed")
+    text = _smoke("bench_distributed", tmp_path)
+    assert "bitwise the in-process store (every file): True" in text
+    assert "| Dask 2 workers, jax, warm |" in text

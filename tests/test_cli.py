@@ -14,7 +14,7 @@ import pytest
 
 from vpforms.cli import build_parser, main
 
-SUBCOMMANDS = ("cases", "classify", "run", "poincare", "order", "drift", "errata", "demo", "fieldlines")
+SUBCOMMANDS = ("cases", "classify", "run", "poincare", "verify", "order", "drift", "errata", "demo", "fieldlines")
 
 
 def _png_ok(path, min_bytes=8_000):

@@ -1,23 +1,35 @@
-"""Chunked, resumable, optionally Dask-distributed particle runs into a Zarr store (issue #10).
+"""Chunked, resumable, verified, optionally Dask-distributed particle runs into a Zarr store (issues #10, #22).
 
 ``run(method, x0, h, n_steps, store=…)`` splits the N particles into chunks of
 ``chunk_particles``; each chunk is one task that rebuilds the method from its JSON spec (cached
-per worker process: no pickled jitted functions travel), runs :func:`vpforms.integrate` on its
-particles segment by segment (``checkpoint_every`` steps per segment, a checkpoint after each),
-writes its rows straight into the store and THEN marks itself done.
+per worker process: no pickled jitted functions travel, and the native kernel is compiled once per
+worker), runs :func:`vpforms.integrate` on its particles segment by segment (``checkpoint_every``
+steps per segment, a checkpoint after each), writes its rows straight into the store and THEN
+marks itself done with the checksums of what it wrote (read back).
 
 * ``client=None``: in this process, chunk after chunk; ``"local"``: a
   ``dask.distributed.LocalCluster`` of ``workers`` processes with 1 thread each; ``"tcp://…"``:
   connect to a scheduler; or a ``dask.distributed.Client``.
-* resume: a store whose spec, h, n_steps, t0, save_every, chunking and x0 hash match is continued
-  (only chunks without a done marker run, each from its checkpoint); any mismatch is a
-  :class:`~vpforms.io.StoreMismatchError`, never a mixed store.
+* backend: chosen once by the client (``"auto"``: native where it can run, else JAX), recorded in
+  the store and run by every chunk; the native kernel and JAX agree only to rounding, so a store
+  is written by one backend.
+* resume: a store whose spec, h, n_steps, t0, save_every, chunking, x0 hash and backend match is
+  continued; any mismatch is a :class:`~vpforms.io.StoreMismatchError` that prints both values,
+  never a mixed store.  Every done marker is verified against the data first
+  (:func:`vpforms.io.verify_chunk`): a chunk whose arrays are missing, truncated or corrupt is run
+  again (``chunks_report`` says which and why); a chunk an earlier attempt began continues its
+  checkpoint, unless the states already written differ from those the checkpoint was taken after.
 * a killed worker: Dask re-runs its task elsewhere (``retries``); a chunk is written whole by one
   task, so a re-run overwrites, never duplicates.
+* on completion the whole store is verified (:func:`vpforms.io.verify_store`: every chunk against
+  its marker, no non-finite particle without a failure status) and the recovered steps by
+  alternative are recorded (attr ``recovered_how``).
 
 Bitwise reproducibility: a particle's trajectory depends only on its own state (the kernel is
 vmapped per particle), so chunking and segmenting reproduce a single ``integrate`` bit for bit
-(tested).  Failed particles stay frozen across segments, as in one ``integrate`` call.
+(tested), and an interrupted, damaged or distributed run leaves a store whose every file equals
+an uninterrupted single-process run's.  Failed particles stay frozen across segments, as in one
+``integrate`` call.
 """
 
 from __future__ import annotations
@@ -55,32 +67,67 @@ def _method(spec_text: str):
     return m if m is not None else _rebuilt(spec_text)
 
 
+def _load_checkpoint(store: str, c: int, lo: int, hi: int):
+    """(state, None) of chunk c's checkpoint, or (None, why it cannot be continued): none, an
+    unreadable file, or saved states in the store that differ from those it was taken after."""
+    ck = _io.ckpt_path(store, c)
+    if not os.path.exists(ck):
+        return None, None
+    try:
+        with np.load(ck) as z:
+            state = {k: z[k] for k in ("x", "status", "failed", "recovered")}
+            n_done, t_written, sha = int(z["n_done"]), int(z["t_written"]), str(z["x_sha256"])
+            state["how"] = json.loads(str(z["how"]))
+        x_sha = _io.states_digest(store, lo, hi, t_written)
+    except Exception as err:  # noqa: BLE001 — a truncated or garbled checkpoint or chunk file
+        return None, f"checkpoint unreadable ({type(err).__name__})"
+    if x_sha != sha:
+        return None, "the states the checkpoint continues differ from those it was taken after"
+    return {**state, "n_done": n_done, "t_written": t_written}, None
+
+
 def run_chunk(spec_text: str, store: str, c: int, lo: int, x0: np.ndarray, h: float, n_steps: int,
-              save_every: int | None, t0: float, segment: int, backend: str | None = None) -> dict:
-    """Run chunk ``c`` (particles lo … lo + len(x0)) into ``store``; the unit of work of a task."""
+              save_every: int | None, t0: float, segment: int, backend: str = "auto") -> dict:
+    """Run chunk ``c`` (particles lo … lo + len(x0)) into ``store``; the unit of work of a task.
+
+    Continues the chunk's checkpoint when the states already in the store are those it was taken
+    after (else starts over, removing what an earlier attempt left); ends with the done marker
+    (:func:`vpforms.io.mark_done`: the data's checksums, read back).  Returns what it did:
+    ``from_step`` (0 = from the start), ``restarted`` (an earlier attempt had begun this chunk),
+    ``discarded`` (why a checkpoint was not continued), ``backend`` (the one that ran).
+    """
     from ._integrate import integrate
 
-    if _io.is_done(store, c):
+    if _io.is_done(store, c):  # a retry of a task whose earlier attempt finished (the client verified)
         return {"chunk": c, "skipped": True, "wall_s": 0.0}
     t_start = time.perf_counter()
     method = _method(spec_text)
     n = x0.shape[0]
     hi = lo + n
     gsteps = _global_steps(n_steps, save_every)
-    ck = _io.ckpt_path(store, c)
-    if os.path.exists(ck):
-        with np.load(ck) as z:
-            x, status, failed, n_done = z["x"], z["status"], z["failed"], int(z["n_done"])
-            recovered = z["recovered"]
-    else:
+    ck, started = _io.ckpt_path(store, c), _io.started_path(store, c)
+    restarted = os.path.exists(started)
+    if not restarted:
+        open(started, "w").close()
+    state, discarded = _load_checkpoint(store, c, lo, hi)
+    if state is None:
+        if os.path.exists(ck):
+            os.remove(ck)
+        restarted = _io.reset_chunk(store, c) or restarted  # never merge into an earlier attempt's data
         x, status, failed, n_done = x0.copy(), np.zeros(n, np.int32), np.full(n, -1, np.int64), 0
         recovered = np.zeros(n, np.int64)  # steps recovered per particle (issue #12), as Solution.recovered
+        how: dict[str, int] = {}  # … and by alternative, as Solution.stats["recovered_how"]
+        t_written = 0
+    else:
+        x, status, failed, n_done = state["x"], state["status"], state["failed"], state["n_done"]
+        recovered, how, t_written = state["recovered"], state["how"], state["t_written"]
+    from_step, ran = n_done, backend
     first = None if n_done else x0[:, None, :]  # x0 goes out with the first segment (one write)
-    kw = {} if backend is None else {"backend": backend}
     while n_done < n_steps:
         m = min(segment, n_steps - n_done)
         sol = integrate(method, x, h, m, save_every=save_every, t0=t0 + h * n_done,
-                        chunk_size=n, progress=False, **kw)
+                        chunk_size=n, progress=False, backend=backend)
+        ran = sol.stats["backend"]
         alive = status == 0
         xs = np.array(sol.xs)
         xs[~alive] = x[~alive, None, :]  # a failed particle stays frozen (as in one integrate)
@@ -89,6 +136,8 @@ def run_chunk(spec_text: str, store: str, c: int, lo: int, x0: np.ndarray, h: fl
         failed = np.where(newly, sol.failed_step + n_done, failed).astype(np.int64)
         if sol.recovered is not None:  # a frozen particle takes no step, so it recovers none
             recovered = recovered + np.where(alive, sol.recovered, 0).astype(np.int64)
+        for k, v in sol.stats.get("recovered_how", {}).items():  # a frozen particle fails its step
+            how[k] = how.get(k, 0) + int(v)                         # again, unrecovered: exact
         idx = np.searchsorted(gsteps, n_done + sol.steps[1:])
         if idx.size and np.array_equal(gsteps[idx], n_done + sol.steps[1:]):
             keep = slice(None)
@@ -105,18 +154,25 @@ def run_chunk(spec_text: str, store: str, c: int, lo: int, x0: np.ndarray, h: fl
                 out, t_lo, first = np.concatenate([first, out], axis=1) if idx.size else first, 0, None
             _io.write_chunk(store, lo, hi, x=out, t_lo=t_lo,
                             **({"status": status, "failed": failed, "recovered": recovered} if last else {}))
+            t_written = t_lo + out.shape[1]
         elif last:
             _io.write_chunk(store, lo, hi, status=status, failed=failed, recovered=recovered)
         if n_done < n_steps:  # checkpoint: the state at step n_done (atomic replace)
+            x_sha = _io.states_digest(store, lo, hi, t_written)
             tmp = ck + f".{os.getpid()}.tmp.npz"
-            np.savez(tmp, x=x, status=status, failed=failed, recovered=recovered, n_done=n_done)
+            np.savez(tmp, x=x, status=status, failed=failed, recovered=recovered, n_done=n_done,
+                     t_written=t_written, x_sha256=x_sha, how=json.dumps(how, sort_keys=True))
             os.replace(tmp, ck)
     if n_steps == 0:
         _io.write_chunk(store, lo, hi, x=x0[:, None, :], status=status, failed=failed, recovered=recovered)
-    _io.mark_done(store, c)  # after the data: a half-written chunk is never read as done
-    if os.path.exists(ck):
-        os.remove(ck)
-    return {"chunk": c, "skipped": False, "wall_s": time.perf_counter() - t_start, "particles": n}
+    # after the data, with their checksums read back: a half-written chunk is never read as done
+    _io.mark_done(store, c, {"particles": [lo, hi], "backend": ran, "recovered_how": dict(sorted(how.items())),
+                             "arrays": _io.chunk_digest(store, lo, hi)})
+    for f in (ck, started):
+        if os.path.exists(f):
+            os.remove(f)
+    return {"chunk": c, "skipped": False, "wall_s": time.perf_counter() - t_start, "particles": n,
+            "backend": ran, "from_step": from_step, "restarted": restarted, "discarded": discarded}
 
 
 def _client(client: Any, workers: int | None):
@@ -132,14 +188,61 @@ def _client(client: Any, workers: int | None):
     return client, False
 
 
+def _choose_backend(method: Any, backend: str | None, store: str, resume: bool) -> tuple[str, str]:
+    """(backend, why) of a store run: ``backend`` as :func:`vpforms.integrate` chooses it, except
+    that ``"auto"`` continues a resumed store with the backend that wrote it (their last bits
+    differ: one store, one backend)."""
+    from .backends import select_backend
+
+    backend = "auto" if backend is None else backend
+    old = _io.store_attrs(store) if resume else None
+    if backend == "auto" and old is not None and old.get("backend") in ("jax", "native"):
+        name, _ = select_backend(method, old["backend"])  # NativeUnavailableError: says why
+        return name, f"auto: the backend that wrote {os.fspath(store)!r}"
+    return select_backend(method, backend)
+
+
+def _report(kept: int, redone: dict[int, str], results: list[dict]) -> str:
+    """What a store run did with its chunks, in one line (the CLI prints it): kept (verified),
+    run, redone because they failed verification or because an earlier attempt did not finish."""
+    ran = [r for r in results if not r.get("skipped")]
+    restarted = sorted((r for r in ran if r["restarted"] and r["chunk"] not in redone), key=lambda r: r["chunk"])
+    fresh = len(ran) - len(restarted) - len(set(redone) & {r["chunk"] for r in ran})
+    parts = [f"{kept} kept (verified)"] if kept else []
+    if fresh:
+        parts.append(f"{fresh} run")
+    if redone:
+        parts.append(f"{len(redone)} redone: failed verification ({_io.describe_bad(redone)})")
+    if restarted:
+        where = ", ".join(f"{r['chunk']} from step {r['from_step']}" if r["from_step"] else
+                          f"{r['chunk']} from the start" for r in restarted[:5])
+        more = f", and {len(restarted) - 5} more" if len(restarted) > 5 else ""
+        parts.append(f"{len(restarted)} redone: an earlier attempt did not finish (chunk {where}{more})")
+    discarded = [r for r in ran if r.get("discarded")]
+    if discarded:
+        parts.append(f"{len(discarded)} checkpoint(s) not continued (chunk {discarded[0]['chunk']}: "
+                     f"{discarded[0]['discarded']})")
+    return "; ".join(parts) or "nothing to run"
+
+
 def run(method: Any, x0: Any, h: float, n_steps: int, *, store: str, save_every: int | None = None,
         t0: float = 0.0, chunk_particles: int = 65536, client: Any = None, workers: int | None = None,
         checkpoint_every: int | None = None, resume: bool = True, progress: bool | str = "auto",
-        backend: str | None = None, retries: int = 3):
+        backend: str | None = "auto", retries: int = 3):
     """Run the particles x0 (N, 3) with ``method`` into the Zarr ``store``; return the xarray Dataset.
 
     ``checkpoint_every`` (steps, rounded up to a multiple of ``save_every``; None = no checkpoints)
-    is the segment length after which each chunk saves its state.  See the module docstring.
+    is the segment length after which each chunk saves its state.  ``backend`` is
+    :func:`vpforms.integrate`'s (``"auto"``: native where it can run — every worker then runs the
+    compiled kernel, built once per worker process — else JAX); the choice is made once, here,
+    recorded in the store, and every chunk runs it (a resumed store keeps its backend).
+
+    Resume verifies every done marker against the data before trusting it (a chunk whose arrays
+    are missing, truncated or changed is run again), and a finished run is verified whole
+    (:func:`vpforms.io.verify_store`; :class:`vpforms.io.StoreVerificationError` if it fails).
+    The returned Dataset's attrs add ``wall_s``, ``backend_reason``, ``redone`` ({chunk: why it
+    failed verification}) and ``chunks_report`` (one line: chunks kept, run, redone and why).
+    See the module docstring.
     """
     from ._integrate import _check_run
 
@@ -157,25 +260,48 @@ def run(method: Any, x0: Any, h: float, n_steps: int, *, store: str, save_every:
         seg = -(-max(seg, 1) // save_every) * save_every
     seg = max(seg, 1)
     spec_text = json.dumps(method.spec(), sort_keys=True)  # SpecError: the method cannot be shipped
+    store = os.fspath(store)
+    backend, backend_reason = _choose_backend(method, backend, store, resume)
     N = pts.shape[0]
     steps = _global_steps(n_steps, save_every)
     attrs = {"spec": spec_text, "method": getattr(method, "name", repr(method)), "h": h, "t0": float(t0),
              "n_steps": n_steps, "save_every": -1 if save_every is None else save_every,
              "x0_sha256": hashlib.sha256(np.ascontiguousarray(pts).tobytes()).hexdigest(),
-             "n_particles": N, "chunk_particles": C, "single": 0}
-    _io.create_store(store, n_particles=N, steps=steps, ts=t0 + h * steps.astype(float), chunk=C,
-                     attrs=attrs, resume=resume)
+             "n_particles": N, "chunk_particles": C, "single": 0, "backend": backend,
+             "store_format": _io.STORE_FORMAT}
+    resumed = _io.create_store(store, n_particles=N, steps=steps, ts=t0 + h * steps.astype(float), chunk=C,
+                               attrs=attrs, resume=resume)
     chunks = [(c, c * C, pts[c * C:(c + 1) * C]) for c in range(-(-N // C))]
-    todo = [ch for ch in chunks if not _io.is_done(store, ch[0])]
+    todo, redone, kept = [], {}, 0
+    if resumed:  # trust no marker unchecked: a chunk missing, truncated or changed is run again
+        _io.remove_partial_files(store)
+        for ch in chunks:
+            c, lo, x = ch
+            if _io.is_done(store, c):
+                why = _io.verify_chunk(store, c, lo, lo + x.shape[0])
+                if why is None:
+                    kept += 1
+                    for f in (_io.ckpt_path(store, c), _io.started_path(store, c)):  # a kill after the marker
+                        if os.path.exists(f):
+                            os.remove(f)
+                    continue
+                redone[c] = why
+                _io.unmark_done(store, c)
+            todo.append(ch)
+    else:
+        todo = chunks
     show = progress is True or (progress == "auto" and sys.stderr.isatty())
-    store = os.fspath(store)
+    if show and redone:
+        print(f"vpforms: {len(redone)} chunk(s) of {store} failed verification and are run again: "
+              f"{_io.describe_bad(redone)}", file=sys.stderr)
     args = (h, n_steps, save_every, float(t0), seg, backend)
+    results = []
     t_wall = time.perf_counter()
     if client is None:
         _IN_PROCESS.clear()
         _IN_PROCESS[spec_text] = method
         for k, (c, lo, x) in enumerate(todo):
-            run_chunk(spec_text, store, c, lo, x, *args)
+            results.append(run_chunk(spec_text, store, c, lo, x, *args))
             if show:
                 print(f"vpforms: chunk {k + 1}/{len(todo)} done", file=sys.stderr)
     else:
@@ -187,7 +313,7 @@ def run(method: Any, x0: Any, h: float, n_steps: int, *, store: str, save_every:
                               key=f"vpforms-chunk-{c}-{attrs['x0_sha256'][:8]}-{time.time_ns()}")
                     for (c, lo, x) in todo]
             for k, f in enumerate(as_completed(futs)):
-                f.result()
+                results.append(f.result())
                 if show:
                     print(f"vpforms: chunk {k + 1}/{len(todo)} done", file=sys.stderr)
         finally:
@@ -196,9 +322,14 @@ def run(method: Any, x0: Any, h: float, n_steps: int, *, store: str, save_every:
                 cl.close()
                 if cluster is not None:
                     cluster.close()
-    missing = [c for c, _, _ in chunks if not _io.is_done(store, c)]
-    if missing:  # pragma: no cover — every task either finished or raised above
-        raise RuntimeError(f"chunks {missing[:10]} of {store!r} did not complete")
+    wall = time.perf_counter() - t_wall
+    check = _io.verify_store(store)  # the final pass: every chunk against its marker, every NaN explained
+    if check["bad"]:
+        raise _io.StoreVerificationError(f"store {store!r} fails verification after the run: "
+                                         f"{_io.describe_bad(check['bad'])}")
+    _io.finish_store(store, {"recovered_how": json.dumps(check["recovered_how"], sort_keys=True)})
     ds = _io.open_store(store)
-    ds.attrs["wall_s"] = time.perf_counter() - t_wall
+    ds.attrs.update(wall_s=wall, backend_reason=backend_reason, redone=redone,
+                    chunks_report=_report(kept, redone, results))
     return ds
+

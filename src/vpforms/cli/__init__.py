@@ -1,7 +1,7 @@
 """The ``vpforms`` command line (argparse + rich), one module per subcommand group.
 
 Subcommands: ``cases``, ``classify``, ``errata`` (:mod:`.tables`); ``run``, ``poincare``
-(:mod:`.trace`); ``order``, ``drift`` (:mod:`.studies`); ``fieldlines`` (:mod:`.fieldlines`); ``demo``
+(:mod:`.trace`), ``verify`` (:mod:`._distributed`, registered by :mod:`.trace`); ``order``, ``drift`` (:mod:`.studies`); ``fieldlines`` (:mod:`.fieldlines`); ``demo``
 (:mod:`.demo`) — each with
 ``--help``. Each group module has ``register(sub)`` adding its subparsers; shared parsing and
 method construction live in :mod:`._common`. ``main(argv) -> int`` never raises for bad input: it

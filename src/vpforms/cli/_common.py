@@ -263,7 +263,9 @@ def _add_problem_args(p, default_problem="abc"):
 def _add_method_args(p, default_order=1, backend=False):
     if backend:  # integrate's backend (issue 9): native C kernel where it can be generated
         p.add_argument("--backend", choices=("auto", "jax", "native"), default="auto",
-                       help="auto (native where available, else JAX; default), jax or native")
+                       help="auto (native where available, else JAX; default), jax or native; a .zarr "
+                            "store run records it and every chunk and worker runs it (auto resumes a "
+                            "store with the backend that wrote it)")
     p.add_argument("--method", default="SE+SE", metavar="CLASS",
                    help="class representative: SE+SE, SE+DL (= DL+SE), DL+DL, S1, S2, or rk4 "
                         "(the explicit baseline); default SE+SE")

@@ -123,6 +123,7 @@ def register(sub) -> None:
     p.add_argument("--out", default="vpforms-run.npz", help="output .npz, or a .zarr store (default vpforms-run.npz)")
     _distributed.add_args(p)
     p.set_defaults(func=_cmd_run)
+    _distributed.register(sub)
 
     p = sub.add_parser("poincare", help="Poincaré section: PNG + crossings CSV",
                        description="Non-terminating crossings of the plane x_AXIS = VALUE (mod the "
