@@ -227,10 +227,27 @@ class Solution:
             out["recovered steps"] = int(np.sum(self.recovered))
         return {**out, **self.stats}
 
-    def save(self, path: str) -> None:
-        """Write an ``.npz`` with ts, steps, xs, status, failed_step and the run parameters."""
+    def save(self, path: str) -> str:
+        """Write an ``.npz`` with ts, steps, xs, status, failed_step, recovered, recovered_how and the
+        run parameters; returns the name of the file written (NumPy appends ``.npz`` to a name
+        without it: ``run.txt`` → ``run.txt.npz``).
+
+        ``recovered`` is :attr:`recovered` (steps per particle that failed bare and were recovered;
+        absent when the run did not count them) and ``recovered_how`` a JSON object (a 0-d string
+        array) of the recovered steps by alternative, ``stats["recovered_how"]`` (``{}`` = none).
+        """
+        import json
+        import os
+
+        if isinstance(path, (str, os.PathLike)):
+            path = os.fspath(path)
+            if not path.endswith(".npz"):
+                path += ".npz"
+        rec = {} if self.recovered is None else {"recovered": np.asarray(self.recovered)}
         np.savez_compressed(
             path,
+            **rec,
+            recovered_how=np.array(json.dumps(self.stats.get("recovered_how", {}), ensure_ascii=False)),
             ts=self.ts,
             steps=self.steps,
             xs=self.xs,
@@ -242,6 +259,7 @@ class Solution:
             save_every=np.array(-1 if self.save_every is None else self.save_every),
             t0=np.array(self.t0),
         )
+        return path
 
     def to_xarray(self, method: Any = None):
         """This solution as an ``xarray.Dataset`` (:mod:`vpforms.io`; ``method`` adds its spec)."""

@@ -14,8 +14,46 @@ class CLIError(Exception):
 
 
 class _Parser(argparse.ArgumentParser):
+    """One-line errors; every option records, when given, ``args._given[dest] = option string`` (so that
+    an option that does nothing in a mode can be refused even when its value is the default)."""
+
     def error(self, message: str):  # one line instead of usage + message
         raise CLIError(f"{message} (see '{self.prog} --help')")
+
+    def add_argument(self, *args, **kwargs):
+        action = super().add_argument(*args, **kwargs)
+        if action.option_strings:
+            action.__class__ = _recording(type(action))
+        return action
+
+
+_RECORDING: dict = {}
+
+
+def _recording(cls):
+    """``cls`` that also records its dest and spelling in ``namespace._given`` when it is used."""
+    if cls not in _RECORDING:
+        def __call__(self, parser, namespace, values, option_string=None):
+            namespace.__dict__.setdefault("_given", {})[self.dest] = option_string or self.dest
+            cls.__call__(self, parser, namespace, values, option_string)
+
+        _RECORDING[cls] = type(cls.__name__, (cls,), {"__call__": __call__})
+    return _RECORDING[cls]
+
+
+def given(args, dest: str) -> bool:
+    """Whether the option with this ``dest`` was on the command line (not just its default)."""
+    return dest in getattr(args, "_given", ())
+
+
+def refuse_unless(args, dests, applies: bool, why: str) -> None:
+    """Refuse those of the options ``dests`` that were given when they do nothing (``applies`` is
+    false): one line, "--a, --b do nothing ``why``", e.g. why = "with --x0 (…)"."""
+    if applies:
+        return
+    bad = [args._given[d] for d in dests if given(args, d)]
+    if bad:
+        raise CLIError(f"{', '.join(bad)} {'does' if len(bad) == 1 else 'do'} nothing {why}")
 
 
 # --------------------------------------------------------------------------------------------
@@ -83,6 +121,8 @@ def _checked(convert, ok, must_be: str):
 _positive_float = _checked(float, lambda v: v > 0 and math.isfinite(v), "a positive number")
 _finite_float = _checked(float, math.isfinite, "a finite number")
 _positive_int = _checked(int, lambda v: v >= 1, "a positive integer")
+#: θ of the discrete Lagrangians: the two values documented (and tested) are 0 and ½
+_theta = _checked(float, lambda v: v in (0.0, 0.5), "0 or 0.5 (θ of the discrete Lagrangian)")
 
 
 def _float_list(text: str) -> list[float]:
@@ -116,6 +156,9 @@ def _problem(args):
         raise CLIError(f"the problem library (vpforms.problems) is not available: {exc}") from None
     from . import _fields
 
+    # the points of --x0 are the initial conditions: --particles and --seed would do nothing
+    refuse_unless(args, ("particles", "seed"), not getattr(args, "x0", None),
+                  "with --x0 (its points are the initial conditions)")
     params = _parse_params(getattr(args, "param", None))
     name = _fields.problem_name(args)  # --field/--field-file (issue #11) or --problem, and --x0
     if _fields.wants_user_field(args):
@@ -170,8 +213,12 @@ def _make_method(field, cls, case, order, fast, theta, recover=True, composition
     from .._integrate import RK4
 
     if str(cls).strip().lower() == "rk4":
-        if order != 1 or case is not None:
-            raise CLIError("rk4 is the explicit baseline: --case and --order do not apply")
+        bad = [name for name, on in (("--case", case is not None), ("--order", order != 1), ("--fast", fast),
+                                     ("--theta", theta is not None), ("--no-recover", not recover),
+                                     ("--composition", composition is not None)) if on]
+        if bad:
+            raise CLIError(f"rk4 is the explicit baseline: {', '.join(bad)} "
+                           f"{'does' if len(bad) == 1 else 'do'} not apply")
         return RK4(field)
     try:
         from .._methods import compose, scheme
@@ -281,8 +328,8 @@ def _add_method_args(p, default_order=1, backend=False):
     p.add_argument("--fast", action="store_true",
                    help="direct evaluation of the same map: closed-form shears (SE+SE) or the nested "
                         "θ-stages (SE+DL, DL+DL: no fold failures of the discrete Lagrangian)")
-    p.add_argument("--theta", type=_finite_float, default=None,
-                   help="θ of the discrete Lagrangian (DL classes): 0 or 0.5")
+    p.add_argument("--theta", type=_theta, default=None,
+                   help="θ of the discrete Lagrangian (DL classes): 0 (default) or 0.5")
     p.add_argument("--no-recover", action="store_true",
                    help="freeze a particle at a failed step instead of recovering it (bare method)")
 

@@ -24,6 +24,23 @@ def explain_solution(console, sol, method: Any) -> None:
         print_report(console, sol.explain(method, cli=True))
 
 
+def recovered_text(sol, method: Any) -> str:
+    """The summary's "recovered steps": how many steps failed bare and were recovered, in how many
+    particles, and by which alternative (``Solution.recovered`` and ``stats["recovered_how"]``)."""
+    from .._recovery import bare_method
+
+    if bare_method(method) is method:  # RK4, --no-recover: nothing is recovered
+        return "off (bare method: a failed step freezes its particle)"
+    rec = np.atleast_1d(np.asarray(sol.recovered if sol.recovered is not None else 0))
+    total = int(rec.sum())
+    if not total:
+        return "0"
+    n = int(np.count_nonzero(rec))
+    how = sol.stats.get("recovered_how", {})
+    by = ", ".join(f"{v} with {k}" for k, v in sorted(how.items(), key=lambda kv: -kv[1]))
+    return f"{total} in {n} particle{'s' if n != 1 else ''}" + (f" ({by})" if by else "")
+
+
 def explain_rerun(console, status, method: Any, x0, h: float, n_steps: int, what: str) -> None:
     """The report for a diagnostic that keeps only per-particle status codes (log_det, Poincaré).
 

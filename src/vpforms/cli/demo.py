@@ -56,7 +56,7 @@ def _cmd_demo(args, console) -> int:
     hs = [0.2 / 2**k for k in range(3 if quick else 6)]
     specs = [("SE+SE", 1), ("SE+SE", 2), ("SE+SE", 4), ("rk4", 1)]
     t = time.perf_counter()
-    fits = _order_study(abc, specs, T, hs, 2 if quick else 8, 2, console, fast=True)
+    fits = _order_study(abc, specs, T, hs, abc.initial_conditions(2 if quick else 8, seed=2), console, fast=True)
     png2 = os.path.join(out, "order_abc.png")
     plots.order_figure(fits, title=f"Convergence on the ABC flow at T = {T:g}", path=png2)
     console.print(_order_table(fits, f"max error at T = {T:g} (ABC flow)"))
@@ -67,8 +67,8 @@ def _cmd_demo(args, console) -> int:
     rb = problems.get("rigid_body")
     m_rb = _method(rb.field, "SE+SE", order=4)
     steps = 200 if quick else 5000
-    panels, stats = _drift_panels(rb, m_rb, 0.1, steps, 4 if quick else 16, 0, console,
-                                  label="vpforms SE+SE, order 4")
+    panels, stats = _drift_panels(rb, m_rb, 0.1, steps, rb.initial_conditions(4 if quick else 16, seed=0),
+                                  console, label="vpforms SE+SE, order 4")
     png3 = os.path.join(out, "drift_rigid_body.png")
     plots.drift_figure(panels, title="Free rigid body, h = 0.1: vpforms (order 4) vs RK4 (order 4)", path=png3)
     lines = []

@@ -24,6 +24,7 @@ from ._common import (
     _positive_float,
     _positive_int,
     _summary_table,
+    refuse_unless,
 )
 
 
@@ -90,6 +91,11 @@ def _cmd_fieldlines(args, console) -> int:
     )
 
     _check_out(args.png, args.iota_png, args.csv)
+    refuse_unless(args, ("R", "Z", "grid"), bool(args.coils), "without --coils (the spline grid of a coils file)")
+    refuse_unless(args, ("problem", "param"), not (args.coils or args.mgrid),
+                  "with --coils/--mgrid (the field is the file's)")
+    refuse_unless(args, ("lines",), not args.radii, "with --radii (it gives the start points)")
+    refuse_unless(args, ("island_range", "island_scan"), bool(args.islands), "without --islands M")
     field, nfp, guess, span, name = _field_source(args)
     method = _method_from_args(args, field)
     t_all = time.perf_counter()

@@ -15,16 +15,17 @@ from ._common import (
     _positive_int,
     _problem,
     _spec_label,
+    refuse_unless,
 )
 
 
-def _order_study(prob, specs, T, hs, n_particles, seed, console, fast=False):
-    """Errors at T for each method spec over hs; returns label → OrderFit."""
+def _order_study(prob, specs, T, hs, x0, console, fast=False):
+    """Errors at T for each method spec over hs, from the initial conditions x0 (N, 3); returns
+    label → OrderFit."""
     from rich.progress import Progress
 
     from ..diagnostics import fit_order, reference_solution, step_size_errors
 
-    x0 = prob.initial_conditions(n_particles, seed=seed)
     with console.status("reference solution (DOP853, rtol 1e-13)…"):
         ref = reference_solution(prob.field, x0, T)
     fits = {}
@@ -58,8 +59,11 @@ def _cmd_order(args, console) -> int:
     from .. import plots
 
     _check_out(args.png)
-    prob = _problem(args)
+    refuse_unless(args, ("h_max", "levels"), not args.hs, "with --hs (it lists the step sizes)")
     specs = [_parse_method_spec(s) for s in (args.methods or ["SE+SE", "SE+SE:2", "SE+SE:4", "rk4"])]
+    refuse_unless(args, ("fast",), any(name.upper() == "SE+SE" for name, _ in specs),
+                  "without an SE+SE spec in --methods (it is the closed-form SE+SE path)")
+    prob = _problem(args)
     if args.hs:
         hs = sorted(args.hs, reverse=True)
     else:
@@ -67,15 +71,16 @@ def _cmd_order(args, console) -> int:
     for h in hs:
         if abs(args.T / h - round(args.T / h)) > 1e-9 * max(1.0, args.T / h):
             raise CLIError(f"T/h must be an integer for every h (T = {args.T}, h = {h})")
-    fits = _order_study(prob, specs, args.T, hs, args.particles, args.seed, console, fast=args.fast)
-    console.print(_order_table(fits, f"max error at T = {args.T:g} on {prob.name} ({args.particles} particles; · = not in fit)"))
+    x0 = prob.initial_conditions(args.particles, seed=args.seed)  # the points of --x0, if given
+    fits = _order_study(prob, specs, args.T, hs, x0, console, fast=args.fast)
+    console.print(_order_table(fits, f"max error at T = {args.T:g} on {prob.name} ({len(x0)} particles; · = not in fit)"))
     plots.order_figure(fits, title=f"Convergence on {prob.name} at T = {args.T:g}", path=args.png)
     console.print(f"figure: {args.png}", soft_wrap=True)
     return 0
 
 
-def _drift_panels(prob, method, h, steps, n_particles, seed, console, label=None, failures=None):
-    """Volume (and invariant) drift of ``method`` and RK4 along the same orbits.
+def _drift_panels(prob, method, h, steps, x0, console, label=None, failures=None):
+    """Volume (and invariant) drift of ``method`` and RK4 along the same orbits, from x0 (N, 3).
 
     ``failures`` (a dict), when given, receives label → (method, x0, per-orbit status) for every
     method with failed orbits (to explain them, issue #12)."""
@@ -84,13 +89,12 @@ def _drift_panels(prob, method, h, steps, n_particles, seed, console, label=None
     from .._integrate import RK4, integrate
     from ..diagnostics import invariant_drift, log_det
 
-    x0 = prob.initial_conditions(n_particles, seed=seed)
     label = label or "vpforms " + getattr(method, "name", "method")
     methods = {label: method, "RK4": RK4(prob.field)}
     vol, inv = {}, {}
     stats = {}
     for label, m in methods.items():
-        with console.status(f"log |det J| along {n_particles} orbits × {steps} steps: {label}…"):
+        with console.status(f"log |det J| along {len(x0)} orbits × {steps} steps: {label}…"):
             ld = log_det(m, x0, h, steps)
         vol[label] = (ld.ts, np.abs(ld.accumulated))
         # a failed orbit's log det stops at its failure: say how many, next to the maximum
@@ -115,10 +119,10 @@ def _cmd_drift(args, console) -> int:
     prob = _problem(args)
     method = _method_from_args(args, prob.field)
     failures: dict = {}
-    panels, stats = _drift_panels(prob, method, args.h, args.steps, args.particles, args.seed, console,
-                                  failures=failures)
+    x0 = prob.initial_conditions(args.particles, seed=args.seed)  # the points of --x0, if given
+    panels, stats = _drift_panels(prob, method, args.h, args.steps, x0, console, failures=failures)
     plots.drift_figure(panels, title=f"Drift on {prob.name}, h = {args.h:g}: vpforms vs RK4", path=args.png)
-    t = Table(title=f"drift on {prob.name}, h = {args.h:g}, {args.steps} steps, {args.particles} orbits")
+    t = Table(title=f"drift on {prob.name}, h = {args.h:g}, {args.steps} steps, {len(x0)} orbits")
     keys = list(next(iter(stats.values())))
     t.add_column("method", no_wrap=True, min_width=max(map(len, stats)))  # never cut the name
     for k in keys:

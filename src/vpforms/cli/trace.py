@@ -6,7 +6,6 @@ import math
 import time
 
 from . import _distributed
-from ._explain import explain_rerun, explain_solution
 from ._common import (
     CLIError,
     _add_method_args,
@@ -17,7 +16,9 @@ from ._common import (
     _positive_int,
     _problem,
     _summary_table,
+    refuse_unless,
 )
+from ._explain import explain_rerun, explain_solution, recovered_text
 
 
 def _cmd_run(args, console) -> int:
@@ -26,10 +27,12 @@ def _cmd_run(args, console) -> int:
     from .._integrate import integrate
 
     _check_out(args.out)
+    store = str(args.out).endswith(".zarr")
+    refuse_unless(args, STORE_OPTIONS, store, "without a .zarr store (--out run.zarr): an .npz run is in process")
     prob = _problem(args)
     method = _method_from_args(args, prob.field)
     x0 = prob.initial_conditions(args.particles, seed=args.seed)
-    if str(args.out).endswith(".zarr"):  # a store run: chunked, resumable, optionally distributed
+    if store:  # a store run: chunked, resumable, optionally distributed
         return _distributed.cmd_run_store(args, prob, method, x0, console)
     from ..backends import NativeUnavailableError
 
@@ -38,7 +41,7 @@ def _cmd_run(args, console) -> int:
                         chunk_size=args.chunk_size, progress="auto", backend=args.backend)
     except NativeUnavailableError as exc:
         raise CLIError(str(exc)) from None
-    sol.save(args.out)
+    written = sol.save(args.out)  # NumPy appends .npz to a name without it
     rows = {
         "problem": prob.name,
         "method": sol.method,
@@ -49,6 +52,7 @@ def _cmd_run(args, console) -> int:
         "t final": float(sol.ts[-1]),
         "saved states per particle": int(sol.ts.size),
         "failed particles": sol.n_failed,
+        "recovered steps": recovered_text(sol, method),
         "wall time (s, incl. compile)": round(sol.stats["wall_s"], 3),
         "ns per particle-step (incl. compile)": round(sol.stats["ns_per_particle_step"], 1),
     }
@@ -58,9 +62,13 @@ def _cmd_run(args, console) -> int:
         for name, d in invariant_drift(prob.invariants, sol.xs[None] if sol.xs.ndim == 2 else sol.xs).items():
             rows[f"max |Δ {name}|"] = f"{float(np.max(np.abs(d))):.3e}"
     console.print(_summary_table("vpforms run", rows))
-    console.print(f"written: {args.out}", soft_wrap=True)
+    console.print(f"written: {written}", soft_wrap=True)
     explain_solution(console, sol, method)  # breakdown by reason, first failures, hint (issue #12)
     return 0
+
+
+#: the options of a .zarr store run (:func:`._distributed.add_args`): refused without a store
+STORE_OPTIONS = ("scheduler", "workers", "resume", "chunk_particles", "checkpoint_every")
 
 
 def _default_period(prob, axis: int, given: float | None) -> float | None:
@@ -94,7 +102,7 @@ def _cmd_poincare(args, console) -> int:
         "method": sec.method,
         "plane": f"x{args.axis} = {args.value:g}"
         + ((" (mod 2π)" if abs(period - 2 * math.pi) < 1e-12 else f" (mod {period:.6g})") if period else ""),
-        "orbits × steps": f"{args.particles} × {args.steps} (h = {args.h:g})",
+        "orbits × steps": f"{len(x0)} × {args.steps} (h = {args.h:g})",
         "crossings": int(sec.points.shape[0]),
         "dropped (buffer full)": sec.dropped,
         "interpolation": f"{sec.interpolation}: order {sec.interpolation_order}",

@@ -5,6 +5,10 @@ environment variable ``VPFORMS_NATIVE_CACHE``), keyed by a hash of source + flag
 version; a build writes into a private temporary directory and is published by ``os.replace``
 (atomic on POSIX), so concurrent processes never see a half-written object.
 ``VPFORMS_NATIVE_DISABLE=1`` makes :func:`available` report no compiler (tests, debugging).
+
+What the compiler prints (with these flags gcc's ``cc1: note: disable pass …`` for each
+``-fdisable-tree-…``) is captured, not shown: it goes to the logger ``vpforms.native`` at level
+INFO (``vpforms -v`` shows it); a failed compilation raises an error quoting its first error line.
 """
 
 from __future__ import annotations
@@ -12,11 +16,15 @@ from __future__ import annotations
 import hashlib
 import importlib.machinery
 import importlib.util
+import logging
 import os
 import shutil
 import subprocess
+import sys
 import sysconfig
 import tempfile
+import threading
+from contextlib import contextmanager
 from functools import lru_cache
 from pathlib import Path
 
@@ -32,6 +40,8 @@ FLAGS = ("-O3", "-march=native", "-ffast-math", "-fno-finite-math-only",
 COUNTERS = {"compiled": 0, "cache_hits": 0}
 
 _loaded: dict[str, object] = {}
+_log = logging.getLogger("vpforms.native")
+_CAPTURE = threading.Lock()  # one redirection of the process's stdout/stderr at a time
 
 
 def cache_dir() -> Path:
@@ -100,13 +110,26 @@ def build(source: str, cdef: str):
         try:
             env_cc = os.environ.get("CC")
             os.environ["CC"] = cc
+            failure = None
             try:
-                out = ffi.compile(tmpdir=tmp, verbose=False)
+                with _compiler_output() as printed:
+                    try:
+                        out = ffi.compile(tmpdir=tmp, verbose=False)
+                    except Exception as exc:  # noqa: BLE001  (cffi's VerificationError, distutils' CompileError …)
+                        failure = exc
             finally:
                 if env_cc is None:
                     os.environ.pop("CC", None)
                 else:
                     os.environ["CC"] = env_cc
+            text = "".join(printed).strip()
+            if text:
+                _log.info("the C compiler's output for native kernel %s:\n%s", name, text)
+            if failure is not None:  # one line: the compiler's first error (all of it: vpforms -v)
+                first = next((ln for ln in text.splitlines() if "error" in ln), text.partition("\n")[0])
+                raise OSError(f"the C compiler ({cc}) failed on native kernel {name}: "
+                              f"{type(failure).__name__}: {failure}" + (f"; {first.strip()}" if first else "")
+                              + " (its whole output: vpforms -v, or the logger 'vpforms.native' at INFO)") from None
             os.replace(out, so)  # atomic publish: readers see the old state or the whole file
             COUNTERS["compiled"] += 1
         finally:
@@ -116,3 +139,39 @@ def build(source: str, cdef: str):
     spec.loader.exec_module(mod)
     _loaded[key] = mod
     return mod
+
+
+@contextmanager
+def _compiler_output():
+    """Collect what is written to file descriptors 1 and 2 (the compiler is a child process that
+    inherits them) into the list this yields, filled on exit; nothing is redirected where the
+    descriptors cannot be duplicated."""
+    printed: list[str] = []
+    with _CAPTURE, tempfile.TemporaryFile() as sink:
+        for stream in (sys.stdout, sys.stderr):
+            _flush(stream)
+        try:
+            saved = [os.dup(1), os.dup(2)]
+        except OSError:
+            yield printed
+            return
+        try:
+            os.dup2(sink.fileno(), 1)
+            os.dup2(sink.fileno(), 2)
+            yield printed
+        finally:
+            for stream in (sys.stdout, sys.stderr):
+                _flush(stream)
+            os.dup2(saved[0], 1)
+            os.dup2(saved[1], 2)
+            for fd in saved:
+                os.close(fd)
+            sink.seek(0)
+            printed.append(sink.read().decode(errors="replace"))
+
+
+def _flush(stream) -> None:
+    try:
+        stream.flush()
+    except (AttributeError, OSError, ValueError):
+        pass
