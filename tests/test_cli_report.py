@@ -168,6 +168,8 @@ def test_an_empty_x0_csv_is_one_line_and_no_warning(tmp_path, capsys):
     (["run", "--workers", "2"], "--workers does nothing without a .zarr store"),
     (["run", "--scheduler", "local", "--no-resume"], "--scheduler, --no-resume do nothing without a .zarr"),
     (["run", "--chunk-particles", "8", "--checkpoint-every", "2"], "--chunk-particles, --checkpoint-every"),
+    (["run", "--out", "r.zarr", "--chunk-size", "8"], "--chunk-size does nothing with a .zarr store"),
+    (["run", "--out", "r.zarr", "--workers", "2"], "--workers does nothing without --scheduler local"),
     (["run", "--x0", "{x0}", "--particles", "100"], "--particles does nothing with --x0"),
     (["poincare", "--x0", "{x0}", "--seed", "3"], "--seed does nothing with --x0"),
     (["run", "--method", "rk4", "--fast", "--no-recover"], "rk4 is the explicit baseline: --fast, --no-recover"),
@@ -183,4 +185,5 @@ def test_options_that_do_nothing_are_refused(argv, named, points, tmp_path, caps
     argv = [a.replace("{x0}", points) for a in argv]
     assert main([*argv, "--steps", "2"] if argv[0] in ("run", "poincare") else argv) == 2
     assert named in _one_line_error(capsys)
-    assert not list(tmp_path.glob("vpforms-*"))  # refused before any computation or output
+    assert not list(tmp_path.glob("vpforms-*")) and not list(tmp_path.glob("*.zarr"))  # refused before any
+    # computation or output

@@ -29,6 +29,9 @@ def _cmd_run(args, console) -> int:
     _check_out(args.out)
     store = str(args.out).endswith(".zarr")
     refuse_unless(args, STORE_OPTIONS, store, "without a .zarr store (--out run.zarr): an .npz run is in process")
+    refuse_unless(args, ("chunk_size",), not store, "with a .zarr store (its tasks are --chunk-particles)")
+    refuse_unless(args, ("workers",), args.scheduler == "local",
+                  "without --scheduler local (a remote scheduler has its own workers; no scheduler: in process)")
     prob = _problem(args)
     method = _method_from_args(args, prob.field)
     x0 = prob.initial_conditions(args.particles, seed=args.seed)
