@@ -77,6 +77,7 @@ from ._case import Case, cases
 from ._methods import Method, compose, scheme
 from ._methods._representatives import REPRESENTATIVES
 from ._methods.scheme import class_name
+from ._potentials import _zero_between
 from ._quadrature import DEFAULT_N
 from ._vecpot import VectorPotential, _zero
 from .fields import Field
@@ -293,8 +294,8 @@ class PhiTimeCoordinates:
                 if len(flip):
                     i0 = tuple(flip[0])
                     i1 = tuple(i0[k] + (k == ax) for k in range(3))
-                    p = _bisect_zero(lambda q: float(a2(*(jnp.asarray([t]) for t in q))[0]),
-                                     pts[i0], pts[i1])
+                    p, _ = _zero_between(lambda q: np.asarray(a2(q[:, 0], q[:, 1], q[:, 2])),
+                                         pts[i0], pts[i1])
                     break
         R = np.sqrt(2 * p[0])
         raise PhiTimeError(
@@ -544,23 +545,6 @@ def from_phi_time(field_or_map: Any, y_vphiz: Any) -> jax.Array:
     c = _coords_of(field_or_map)
     y = jnp.asarray(y_vphiz, float)
     return c._from(y.reshape(-1, 3)).reshape(y.shape)
-
-
-def _bisect_zero(f: Callable[[np.ndarray], float], p0: np.ndarray, p1: np.ndarray, n: int = 60) -> np.ndarray:
-    """A zero of f on the segment p0–p1 (f(p0), f(p1) of opposite signs), by bisection."""
-    f0 = f(p0)
-    a, b = 0.0, 1.0
-    for _ in range(n):
-        m = 0.5 * (a + b)
-        fm = f(p0 + m * (p1 - p0))
-        if fm == 0:
-            a = b = m
-            break
-        if np.sign(fm) == np.sign(f0):
-            a = m
-        else:
-            b = m
-    return p0 + 0.5 * (a + b) * (p1 - p0)
 
 
 def _fmt(p: Sequence[float]) -> str:

@@ -17,6 +17,7 @@ from .._errors import RESULTS
 from .._integrate import _Bar, _check_run, _StepFn, auto_chunk_size
 from .._recovery import bare_first
 from ._common import _chunks, _pad
+from ._locate import illinois
 from ._surfaces import Plane
 
 __all__ = ["PoincareSection", "poincare_section"]
@@ -130,41 +131,23 @@ def _poincare_scan(step_fn, n_steps, K, surface, direction, x, st, count, bx, bn
 @partial(jax.jit, static_argnums=(0, 1, 2))
 def _refine_kernel(step_fn, surface, mode, x, lvl, h):
     """Locate θ ∈ [0, 1] with gap(Ψ_{θh}(x), lvl) = 0 (the crossed level of ``surface``) by Illinois
-    regula falsi; return (X, θ, fallback) (fallback: the step family failed, the chord point is
-    returned)."""
+    regula falsi (:func:`._locate.illinois`, the locator of the wall exits too); return (X, θ,
+    fallback) (fallback: the step family failed, the chord point is returned)."""
 
     def one(x, lvl):
-        X1, _ = step_fn(x, h)
+        X1, s1 = step_fn(x, h)
         g0 = surface.gap(x, lvl)
         g1 = surface.gap(X1, lvl)
         th_lin = g0 / (g0 - g1)
         if mode == "linear":  # chord of the step: O(h²) accurate
             return x + th_lin * (X1 - x), th_lin, jnp.bool_(False)
 
-        def g(th):
+        def g(th):  # the crossed level's gap along the step family; payload (Ψ_{θh}(x), status)
             Y, s = step_fn(x, th * h)
-            return surface.gap(Y, lvl), Y, s
+            return surface.gap(Y, lvl), (Y, s)
 
-        tol = 1e-15 * (1.0 + jnp.abs(lvl))
-
-        def cond(c):
-            a, fa, b, fb, it, done = c
-            return (~done) & (it < 60)
-
-        def body(c):
-            a, fa, b, fb, it, _ = c
-            th = (a * fb - b * fa) / (fb - fa)
-            th = jnp.clip(th, jnp.minimum(a, b), jnp.maximum(a, b))
-            ft, _, _ = g(th)
-            same = jnp.sign(ft) == jnp.sign(fb)
-            # Illinois: halve the retained end's value when the same end is kept twice
-            a2, fa2 = jnp.where(same, a, b), jnp.where(same, fa * 0.5, fb)
-            done = (jnp.abs(ft) <= tol) | (jnp.abs(b - a) <= 1e-15)
-            return a2, fa2, th, ft, it + 1, done
-
-        a, fa, b, fb, it, _ = lax.while_loop(cond, body, (0.0, g0, 1.0, g1, 0, False))
-        th = jnp.where(jnp.abs(fa) < jnp.abs(fb), a, b)
-        _, Y, s = g(th)
+        ok0 = jnp.asarray(RESULTS.successful, s1.dtype)
+        th, (Y, s) = illinois(g, g0, (x, ok0), g1, (X1, s1), 1e-15 * (1.0 + jnp.abs(lvl)))
         ok = (s == RESULTS.successful) & jnp.all(jnp.isfinite(Y))
         Y = jnp.where(ok, Y, x + th_lin * (X1 - x))
         return jnp.where(ok, surface.snap(Y, lvl), Y), jnp.where(ok, th, th_lin), ~ok

@@ -26,6 +26,7 @@ from .._errors import RESULTS
 from .._integrate import _Bar, _check_run, _StepFn, auto_chunk_size, describe
 from .._recovery import bare_first
 from ..diagnostics._common import _chunks, _pad
+from ..diagnostics._locate import illinois
 from ._geometry import cylindrical, is_toroidal, speed
 
 __all__ = ["Wall", "WallHits", "trace_to_wall"]
@@ -389,34 +390,6 @@ def _wall_scan(step_fn, n_steps, toroidal, Rv, Zv, x, st, step, Xo, s, phi, L, d
     return jax.vmap(one)(x, st, step, Xo, s, phi, L, dphi)
 
 
-def _illinois(g, g0, p0, g1, p1, tol):
-    """θ ∈ [0, 1] with g(θ) = 0, from g(0) = g0 ≤ 0 ≤ g1 = g(1), by Illinois regula falsi
-    (bracketed; stops at |g| ≤ tol, a bracket of width ≤ 1e-15, or 100 iterations). ``g(θ)`` returns
-    (value, payload); the payload of the returned θ (p0, p1 at the ends) comes back with it, so the
-    family is evaluated once per iteration and never again."""
-
-    def cond(c):
-        return (~c[-1]) & (c[-2] < 100)
-
-    def body(c):
-        a, fa, ga, pa, b, fb, pb, it, _ = c  # fa: Illinois-scaled g(a); ga: g(a) itself
-        den = fb - fa
-        th = jnp.where(den != 0, (a * fb - b * fa) / jnp.where(den != 0, den, 1.0), 0.5 * (a + b))
-        th = jnp.clip(th, jnp.minimum(a, b), jnp.maximum(a, b))
-        ft, pt = g(th)
-        same = jnp.sign(ft) == jnp.sign(fb)
-        # Illinois: halve the retained end's value when the same end is kept twice
-        a2, fa2, ga2 = jnp.where(same, a, b), jnp.where(same, fa * 0.5, fb), jnp.where(same, ga, fb)
-        pa2 = jax.tree_util.tree_map(lambda u, v: jnp.where(same, u, v), pa, pb)
-        done = (jnp.abs(ft) <= tol) | (jnp.abs(th - a2) <= 1e-15)
-        return a2, fa2, ga2, pa2, th, ft, pt, it + 1, done
-
-    start_done = (jnp.abs(g0) <= tol) | (jnp.abs(g1) <= tol)
-    a, _, ga, pa, b, fb, pb, _, _ = lax.while_loop(cond, body, (0.0, g0, g0, p0, 1.0, g1, p1, 0, start_done))
-    first = jnp.abs(ga) < jnp.abs(fb)
-    return jnp.where(first, a, b), jax.tree_util.tree_map(lambda u, v: jnp.where(first, u, v), pa, pb)
-
-
 @partial(jax.jit, static_argnums=(0, 1))
 def _exit_kernel(step_fn, toroidal, Rv, Zv, x, X1, s, h, tol):
     """The exit Ψ_{θh}(x) on the polygon for each line (x inside, X1 = Ψ_h(x) outside): (point, θ,
@@ -436,8 +409,8 @@ def _exit_kernel(step_fn, toroidal, Rv, Zv, x, X1, s, h, tol):
             return sd(Y), (Y, ok)
 
         ok1 = jnp.bool_(True)
-        th, (Y, ok) = _illinois(family, g0, (x, ok1), g1, (X1, ok1), tol)
-        th_c, Yc = _illinois(lambda t: (sd(x + t * (X1 - x)), x + t * (X1 - x)), g0, x, g1, X1, tol)  # fallback
+        th, (Y, ok) = illinois(family, g0, (x, ok1), g1, (X1, ok1), tol)
+        th_c, Yc = illinois(lambda t: (sd(x + t * (X1 - x)), x + t * (X1 - x)), g0, x, g1, X1, tol)  # fallback
         Y = jnp.where(ok, Y, Yc)
         th = jnp.where(ok, th, th_c)
         _, ph0, _ = cylindrical(x, toroidal)
