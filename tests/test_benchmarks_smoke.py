@@ -96,3 +96,13 @@ def test_bench_fieldlines_smoke(tmp_path):
 def test_bench_orders_smoke(tmp_path):
     text = _smoke("bench_orders", tmp_path)
     assert "kahan_li" in text and "order" in text
+
+
+def test_bench_field_prep_smoke(tmp_path):
+    text = _smoke("bench_field_prep", tmp_path)
+    assert "| 3 | SE+SE |" in text and "| 3 | rk4 |" in text and "killed" not in text
+
+
+def test_fuzz_fields_smoke(tmp_path):
+    text = _smoke("fuzz_fields", tmp_path)  # main() returns 1 (the assert in _smoke) on any problem
+    assert "over 10 s: 0" in text

@@ -49,6 +49,7 @@ def _cmd_run(args, console) -> int:
         "t final": float(sol.ts[-1]),
         "saved states per particle": int(sol.ts.size),
         "failed particles": sol.n_failed,
+        **({"divergence check": prob.field.divergence_check} if getattr(prob, "source", None) == "user" else {}),
         "wall time (s, incl. compile)": round(sol.stats["wall_s"], 3),
         "ns per particle-step (incl. compile)": round(sol.stats["ns_per_particle_step"], 1),
     }
