@@ -239,15 +239,18 @@ def _short(e, n: int = 80) -> str:
 def check_divergence(exprs, symbols, box, pts, J, tol: float, thr: float, name: str) -> str:
     """The verdict on div a = 0 (:attr:`Field.divergence_check`), or NotDivergenceFreeError.
 
-    1. exactly, within budget (:func:`vpforms._fieldops._decide_zero`: expand, chop rounding,
-       a nonzero polynomial is not 0, then trigsimp/simplify of a small expression) → "symbolic";
-    2. else in float64 at the points: max |div a| > tol · max|∂aᵢ/∂xⱼ| is refused;
-    3. else, for an exact field, in HP_DIGITS-digit arithmetic at HP_POINTS of them: more than
-       HP_TOL · max|∂aᵢ/∂xⱼ| is refused ("is not 0"); what passes is "numerical (…)", with the
-       tolerances and the number of points: zero-ness established numerically only.
+    1. exactly, by the cheap steps of :func:`vpforms._fieldops._decide_zero` (expand within
+       budget, chop rounding; a nonzero polynomial is not 0) → "symbolic";
+    2. else in float64 at the points: max |div a| > tol · max|∂aᵢ/∂xⱼ| is refused (no
+       simplification is spent on a field that is clearly not divergence free; between tol and
+       1e-6 · max|∂aᵢ/∂xⱼ|, which rounding of a true 0 can reach, a cheap proof is tried first);
+    3. else a symbolic proof when it is cheap (trigsimp/simplify within budget) → "symbolic";
+    4. else, for an exact field, in HP_DIGITS-digit arithmetic at HP_POINTS of the points: more
+       than HP_TOL · max|∂aᵢ/∂xⱼ| is refused ("is not 0"); what passes is "numerical (…)", with
+       the tolerances and the number of points: zero-ness established numerically only.
     """
     div = sum(sp.diff(e, s) for e, s in zip(exprs, symbols))
-    decided = _decide_zero(div, symbols, thr)
+    decided = _decide_zero(div, symbols, thr, simplify=False)
     if decided is True:
         return "symbolic"
     vals = _evaluate(_lambdify_numpy(symbols, div), pts)
@@ -256,11 +259,16 @@ def check_divergence(exprs, symbols, box, pts, J, tol: float, thr: float, name: 
     i = int(bad[0]) if bad.size else int(np.argmax(np.abs(vals)))
     shown = _shown(div)
     if decided is False or bad.size or abs(vals[i]) > tol * scale:
+        if not bad.size and decided is None and abs(vals[i]) <= 1e-6 * scale and \
+                _decide_zero(div, symbols, thr) is True:  # large rounding of a true 0: proven
+            return "symbolic"
         verdict = "is not 0" if decided is False else "does not simplify to 0"
         raise _div_error(
             f"field {name!r} is not divergence free: div a = {shown} {verdict}; the largest "
             f"|div a| found at {len(pts)} points of the box {box} is {abs(vals[i]):.6g} at "
             f"x = {_fmt_pt(pts[i])}", abs(vals[i]), pts[i])
+    if _decide_zero(div, symbols, thr) is True:  # numerically 0: a proof, if cheap
+        return "symbolic"
     if div.atoms(sp.Float):  # approximate coefficients: only a tolerance can judge
         return (f"numerical (|div a| ≤ {tol:g}·max|∂a_i/∂x_j| at {len(pts)} random points of the box, "
                 "float64; the field has rounded coefficients)")

@@ -309,7 +309,8 @@ def _chop(expr: Any, thr: float) -> Any:
     return e if ex is None else ex
 
 
-def _decide_zero(expr: Any, symbols: Sequence[sp.Symbol], float_thr: float) -> bool | None:
+def _decide_zero(expr: Any, symbols: Sequence[sp.Symbol], float_thr: float,
+                 simplify: bool = True) -> bool | None:
     """Is expr identically 0?  True / False when decided exactly, None when not (within budget).
 
     Float coefficients ≤ float_thr count as rounding.  An expression with Float coefficients
@@ -319,6 +320,7 @@ def _decide_zero(expr: Any, symbols: Sequence[sp.Symbol], float_thr: float) -> b
     expansion only when it stays under MAX_EXPAND_TERMS terms, trigsimp/simplify only for
     expressions of at most MAX_SIMPLIFY_OPS operations and for SIMPLIFY_SECONDS; what the budget
     does not decide is None (callers judge it numerically or fall back to quadrature).
+    ``simplify=False`` stops before trigsimp/simplify (the cheap exact steps only).
     """
     e0 = sp.sympify(expr)
     e = bounded_expand(e0)
@@ -334,7 +336,7 @@ def _decide_zero(expr: Any, symbols: Sequence[sp.Symbol], float_thr: float) -> b
             return True
     if expanded and e.is_polynomial(*symbols):
         return None if has_float else False  # an expanded nonzero polynomial is not zero
-    for s in bounded_simplify(e):
+    for s in bounded_simplify(e) if simplify else ():
         if s == 0:
             return True
         if s.atoms(sp.Float) and _chop(s, float_thr) == 0:

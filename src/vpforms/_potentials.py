@@ -150,12 +150,15 @@ def _closed_form_potentials(field: Any, splitting: str):
     (e.g. fresnels(e^{iπ/4}x)·e^{−3iπ/4}, real but not evaluable in float64): the field's own
     components then give the potentials by quadrature.  So does a field over the budget of
     :mod:`vpforms._budget`: a component of more than MAX_INTEGRATE_OPS operations, or integration
-    and verification taking more than INTEGRATE_SECONDS (main thread)."""
-    if any(sp.count_ops(e) > MAX_INTEGRATE_OPS for e in field.exprs):
+    and verification taking more than INTEGRATE_SECONDS (main thread) — after which the field's
+    other splitting and its relabelled fields (which share ``_closed_form_budget``) do not try."""
+    spent = field.__dict__.setdefault("_closed_form_budget", {"over": False})  # shared with relabellings
+    if spent["over"] or any(sp.count_ops(e) > MAX_INTEGRATE_OPS for e in field.exprs):
         return None
     try:
         return time_limited(INTEGRATE_SECONDS, _verified_closed_form, field, splitting)
     except TimeBudgetExceeded:
+        spent["over"] = True  # the other splitting and the relabelled fields: quadrature at once
         return None
 
 

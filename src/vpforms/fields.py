@@ -426,6 +426,7 @@ class Field:
             # a relabelling (π⁻¹, π⁻¹)·a of a checked field (vpforms._methods._relabel): real,
             # finite and divergence free as that one is; not linear (those go to Field.linear)
             how, linear = _relabelled_from.divergence_check, None
+            shared = _relabelled_from.__dict__.setdefault("_closed_form_budget", {"over": False})
         else:
             # real and finite on the box (issue #22), before anything else is computed from it
             pts = sample_box(box, DIV_POINTS, 0)
@@ -460,6 +461,8 @@ class Field:
             divergence_check=how,
             tol=tol,
         )
+        if _relabelled_from is not None:  # one time budget of closed forms for the family
+            field._closed_form_budget = shared
         if potentials is not None:
             for key, pair in _check_potentials_arg(potentials).items():
                 try:
