@@ -246,3 +246,12 @@ def test_fourier_80_from_the_command_line(tmp_path):
                        "--method", method], tmp_path)
         assert rc == 0, err
         assert time.perf_counter() - t < 30, method
+
+
+def test_a_range_is_not_a_value():
+    """Found by benchmarks/fuzz_fields.py: atan(1/0) is AccumBounds(-pi/2, pi/2), which no printer
+    evaluates (a PrintMethodNotImplementedError traceback); now "not finite", one line."""
+    with pytest.raises(FieldSyntaxError, match="is not finite"):
+        field_from_text("(pi)+(atan((y)/(z))), (atan((1/7)/(0)))/((8/2)**3), exp(((-3)**2)**3)", {})
+    with pytest.raises(ValueError, match="not finite"):
+        Field.from_sympy((sp.atan(sp.zoo) * x2, sp.Integer(0), sp.Integer(0)))

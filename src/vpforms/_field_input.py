@@ -141,8 +141,16 @@ def _evaluate_all(exprs, symbols, pts) -> list[np.ndarray]:
             warnings.simplefilter("ignore")
             vals = _lambdify_numpy(symbols, exprs)(*pts.T)
         return [_real_values(v, len(pts)) for v in vals]
-    except (ArithmeticError, TypeError, ValueError):
-        return [_evaluate(_lambdify_numpy(symbols, e), pts) for e in exprs]
+    except Exception:  # noqa: BLE001 - e.g. 10**999 → float, or a printer error: one by one
+        return [_evaluate_one(e, symbols, pts) for e in exprs]
+
+
+def _evaluate_one(e, symbols, pts) -> np.ndarray:
+    try:
+        fn = _lambdify_numpy(symbols, e)
+    except Exception:  # noqa: BLE001 - cannot be printed for numpy: not a value here
+        return np.full(len(pts), np.nan)
+    return _evaluate(fn, pts)
 
 
 def numeric_jacobian(exprs, symbols, pts) -> np.ndarray:

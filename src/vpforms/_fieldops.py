@@ -352,7 +352,7 @@ def _symbolic_zero(expr: Any, symbols: Sequence[sp.Symbol], float_thr: float) ->
 def _check_finite_real(exprs: Sequence[Any], what: str) -> None:
     """ValueError if an expression is NaN/infinite or complex (it would evaluate to NaN/garbage)."""
     for i, e in enumerate(exprs, start=1):
-        if e.has(sp.nan, sp.zoo, sp.oo, -sp.oo):
+        if e.has(sp.nan, sp.zoo, sp.oo, -sp.oo) or e.atoms(sp.AccumBounds):  # atan(zoo): a range
             raise ValueError(f"{what}{i} is not finite: {e}")
         if e.has(sp.I):
             raise ValueError(f"{what}{i} is not real (it contains I): {e}")

@@ -239,7 +239,7 @@ def parse_expression(text: str, params: Mapping[str, Any] | Sequence[str] = (), 
         raise FieldSyntaxError(f"{what}: cannot parse {text!r} ({msg})") from None
     if not isinstance(expr, sp.Expr) or isinstance(expr, tuple):
         raise FieldSyntaxError(f"{what}: {text!r} is not a scalar expression")
-    if expr.has(sp.zoo, sp.oo, -sp.oo, sp.nan):
+    if expr.has(sp.zoo, sp.oo, -sp.oo, sp.nan) or expr.atoms(sp.AccumBounds):  # atan(1/0): a range
         raise FieldSyntaxError(f"{what}: {text!r} is not finite ({expr})")
     return expr
 
