@@ -255,3 +255,16 @@ def test_a_range_is_not_a_value():
         field_from_text("(pi)+(atan((y)/(z))), (atan((1/7)/(0)))/((8/2)**3), exp(((-3)**2)**3)", {})
     with pytest.raises(ValueError, match="not finite"):
         Field.from_sympy((sp.atan(sp.zoo) * x2, sp.Integer(0), sp.Integer(0)))
+
+
+@pytest.mark.parametrize("text", [
+    "exp((tanh(y))*((5)**3)), ((1/6)+(cos(z)))**3, (z)/((atan(3/9))+((x)*(y)))",
+    "(((-1)/(z))**3)**3, (tanh(y))/((cos(z))-(z)), sin(y)",
+])
+def test_the_tolerance_is_relative_to_each_point(text):
+    """Found by benchmarks/fuzz_fields.py: with the largest |∂aᵢ/∂xⱼ| over the whole box as the scale
+    (e^125 here, 1/z¹⁰ there) any divergence passed; the scale is now that of each point."""
+    from vpforms import NotDivergenceFreeError
+
+    with pytest.raises(NotDivergenceFreeError, match="not divergence free"):
+        field_from_text(text, {})

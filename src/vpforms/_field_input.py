@@ -249,25 +249,31 @@ def check_divergence(exprs, symbols, box, pts, J, tol: float, thr: float, name: 
 
     1. exactly, by the cheap steps of :func:`vpforms._fieldops._decide_zero` (expand within
        budget, chop rounding; a nonzero polynomial is not 0) → "symbolic";
-    2. else in float64 at the points: max |div a| > tol · max|∂aᵢ/∂xⱼ| is refused (no
-       simplification is spent on a field that is clearly not divergence free; between tol and
-       1e-6 · max|∂aᵢ/∂xⱼ|, which rounding of a true 0 can reach, a cheap proof is tried first);
+    2. else in float64 at the points: |div a| > tol · max|∂aᵢ/∂xⱼ| at a point (the maximum at that
+       point) is refused (no simplification is spent on a field that is clearly not divergence
+       free; between tol and 1e-6 times it, which rounding of a true 0 can reach, a cheap proof
+       is tried first);
     3. else a symbolic proof when it is cheap (trigsimp/simplify within budget) → "symbolic";
     4. else, for an exact field, in HP_DIGITS-digit arithmetic at HP_POINTS of the points: more
-       than HP_TOL · max|∂aᵢ/∂xⱼ| is refused ("is not 0"); what passes is "numerical (…)", with
-       the tolerances and the number of points: zero-ness established numerically only.
+       than HP_TOL · max|∂aᵢ/∂xⱼ| (at the point) is refused ("is not 0"); what passes is
+       "numerical (…)", with the tolerances and the number of points: zero-ness established
+       numerically only.
     """
     div = sum(sp.diff(e, s) for e, s in zip(exprs, symbols))
     decided = _decide_zero(div, symbols, thr, simplify=False)
     if decided is True:
         return "symbolic"
     vals = _evaluate(_lambdify_numpy(symbols, div), pts)
-    scale = _jac_scale(J)
+    # the scale of rounding at each point: max |∂aᵢ/∂xⱼ| THERE (a global maximum would let a field
+    # that is huge somewhere accept any divergence elsewhere)
+    scale = np.maximum(np.max(np.abs(np.where(np.isfinite(J), J, 0.0)), axis=(1, 2)), np.finfo(float).tiny)
+    ratio = np.abs(vals) / scale
     bad = np.flatnonzero(~np.isfinite(vals))
-    i = int(bad[0]) if bad.size else int(np.argmax(np.abs(vals)))
+    i = int(bad[0]) if bad.size else int(np.argmax(np.abs(vals)))  # reported: the largest |div a|
+    worst = float(np.max(ratio)) if not bad.size else np.inf
     shown = _shown(div)
-    if decided is False or bad.size or abs(vals[i]) > tol * scale:
-        if not bad.size and decided is None and abs(vals[i]) <= 1e-6 * scale and \
+    if decided is False or bad.size or worst > tol:
+        if not bad.size and decided is None and worst <= 1e-6 and \
                 _decide_zero(div, symbols, thr) is True:  # large rounding of a true 0: proven
             return "symbolic"
         verdict = "is not 0" if decided is False else "does not simplify to 0"
@@ -278,17 +284,17 @@ def check_divergence(exprs, symbols, box, pts, J, tol: float, thr: float, name: 
     if _decide_zero(div, symbols, thr) is True:  # numerically 0: a proof, if cheap
         return "symbolic"
     if div.atoms(sp.Float):  # approximate coefficients: only a tolerance can judge
-        return (f"numerical (|div a| ≤ {tol:g}·max|∂a_i/∂x_j| at {len(pts)} random points of the box, "
-                "float64; the field has rounded coefficients)")
-    hp = _high_precision_max(div, symbols, pts[:HP_POINTS])
-    if hp is not None and hp[0] > HP_TOL * scale:
+        return (f"numerical (|div a| ≤ {tol:g}·max|∂a_i/∂x_j| at each of {len(pts)} random points of the "
+                "box, float64; the field has rounded coefficients)")
+    hp = _high_precision_max(div, symbols, pts[:HP_POINTS], scale[:HP_POINTS])
+    if hp is not None and hp[0] > HP_TOL:
         raise _div_error(
             f"field {name!r} is not divergence free: div a = {shown} is not 0: |div a| = "
-            f"{hp[0]:.6g} at x = {_fmt_pt(hp[1])} ({HP_DIGITS}-digit arithmetic)", hp[0], hp[1])
+            f"{hp[1]:.6g} at x = {_fmt_pt(hp[2])} ({HP_DIGITS}-digit arithmetic)", hp[1], hp[2])
     if hp is None:
-        return (f"numerical (|div a| ≤ {tol:g}·max|∂a_i/∂x_j| at {len(pts)} random points of the box, "
-                "float64; no symbolic proof within the budget)")
-    return (f"numerical (|div a| ≤ {HP_TOL:g}·max|∂a_i/∂x_j| at {HP_POINTS} random points in "
+        return (f"numerical (|div a| ≤ {tol:g}·max|∂a_i/∂x_j| at each of {len(pts)} random points of the "
+                "box, float64; no symbolic proof within the budget)")
+    return (f"numerical (|div a| ≤ {HP_TOL:g}·max|∂a_i/∂x_j| at each of {HP_POINTS} random points in "
             f"{HP_DIGITS}-digit arithmetic and ≤ {tol:g}·max|∂a_i/∂x_j| at {len(pts)} in float64; no "
             "symbolic proof within the budget)")
 
@@ -299,18 +305,19 @@ def _shown(div) -> str:
     return _short(div if e is None else e, 200)
 
 
-def _high_precision_max(div, symbols, pts):
-    """(max |div|, where) over the points in HP_DIGITS-digit arithmetic (mpmath), or None if the
-    expression cannot be evaluated there (a function mpmath lacks, every point singular)."""
+def _high_precision_max(div, symbols, pts, scales):
+    """(max |div| / scale, |div| there, where) over the points in HP_DIGITS-digit arithmetic
+    (mpmath), or None if the expression cannot be evaluated there (a function mpmath lacks,
+    every point singular)."""
     import mpmath
 
     try:
         f = sp.lambdify(tuple(symbols), div, "mpmath")
     except Exception:  # noqa: BLE001 - printing failed: no high-precision verdict
         return None
-    best, where, n = mpmath.mpf(0), None, 0
+    best, value, where, n = mpmath.mpf(0), mpmath.mpf(0), None, 0
     with mpmath.workdps(HP_DIGITS):
-        for p in pts:
+        for p, sc in zip(pts, scales):
             try:
                 v = f(*(mpmath.mpf(float(c)) for c in p))
                 a = abs(mpmath.mpmathify(v))
@@ -319,9 +326,9 @@ def _high_precision_max(div, symbols, pts):
             if not mpmath.isfinite(a):
                 continue
             n += 1
-            if where is None or a > best:
-                best, where = a, p
-    return None if not n else (float(best), np.asarray(where))
+            if where is None or a / sc > best:
+                best, value, where = a / sc, a, p
+    return None if not n else (float(best), float(value), np.asarray(where))
 
 
 def _detect_linear(exprs, symbols, J=None) -> np.ndarray | None:
