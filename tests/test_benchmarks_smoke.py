@@ -103,3 +103,13 @@ def test_bench_distributed_smoke(tmp_path):
     text = _smoke("bench_distributed", tmp_path)
     assert "bitwise the in-process store (every file): True" in text
     assert "| Dask 2 workers, jax, warm |" in text
+
+
+def test_bench_field_prep_smoke(tmp_path):
+    text = _smoke("bench_field_prep", tmp_path)
+    assert "| 3 | SE+SE |" in text and "| 3 | rk4 |" in text and "killed" not in text
+
+
+def test_fuzz_fields_smoke(tmp_path):
+    text = _smoke("fuzz_fields", tmp_path)  # main() returns 1 (the assert in _smoke) on any problem
+    assert "over 10 s: 0" in text

@@ -75,7 +75,7 @@ BAD_FIELDS = [
     ("t*y, z, x", "autonomous"),
     ("y, z, x+Q", "unknown name 'Q'"),
     ("y, z, 1/(x-x)", "not finite"),
-    ("sin(y, z, x", "3 components"),
+    ("sin(y, z, x", "unclosed '(' at column 4"),
     ("y; z, x, y", "';'"),
     ("[y], z, x", "'['"),
     ("{y}, z, x", "'{'"),

@@ -15,6 +15,8 @@ __all__ = [
     "ConvergenceError",
     "NonFiniteError",
     "NotDivergenceFreeError",
+    "NotRealFieldError",
+    "BudgetError",
     "InconsistentStepError",
     "RESULTS",
     "RECOVERY",
@@ -51,6 +53,16 @@ class LeftDomainError(VPFormsError):
 
 class NotDivergenceFreeError(VPFormsError, ValueError):
     """A vector field given as divergence free is not."""
+
+
+class NotRealFieldError(VPFormsError, ValueError):
+    """A field is complex or not finite (overflow, a singularity) at sampled points of its box or
+    at the initial conditions (issue #22): it cannot be stepped in float64."""
+
+
+class BudgetError(VPFormsError, ValueError):
+    """A symbolic step of field preparation exceeded its budget and has no cheaper exact
+    alternative (:mod:`vpforms._budget`); the message names the step and what to do."""
 
 
 class RESULTS:

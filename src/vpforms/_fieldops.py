@@ -14,6 +14,7 @@ import sympy as sp
 from sympy.core.function import AppliedUndef
 
 from . import _config  # noqa: F401  (float64)
+from ._budget import bounded_expand, bounded_simplify
 from ._errors import NotDivergenceFreeError, VPFormsError
 
 #: Default coordinate symbols x1, x2, x3 (real).
@@ -301,18 +302,31 @@ def _float_scale(exprs: Sequence[Any]) -> float:
 
 def _chop(expr: Any, thr: float) -> Any:
     small = {f: sp.Integer(0) for f in expr.atoms(sp.Float) if abs(float(f)) <= thr}
-    return sp.expand(expr.xreplace(small)) if small else expr
+    if not small:
+        return expr
+    e = expr.xreplace(small)
+    ex = bounded_expand(e)
+    return e if ex is None else ex
 
 
-def _decide_zero(expr: Any, symbols: Sequence[sp.Symbol], float_thr: float) -> bool | None:
-    """Is expr identically 0?  True / False when SymPy decides it, None when it cannot.
+def _decide_zero(expr: Any, symbols: Sequence[sp.Symbol], float_thr: float,
+                 simplify: bool = True) -> bool | None:
+    """Is expr identically 0?  True / False when decided exactly, None when not (within budget).
 
     Float coefficients ≤ float_thr count as rounding.  An expression with Float coefficients
     that does not chop to 0 is undecided (None): its coefficients are approximate, so only a
-    tolerance can judge it.  An exact (Float-free) expression is decided: a nonzero polynomial,
-    or one that ``equals`` shows nonzero, is False.
+    tolerance can judge it.  An exact (Float-free) expression whose expansion is a nonzero
+    polynomial is False.  Every step runs under the budgets of :mod:`vpforms._budget`: the
+    expansion only when it stays under MAX_EXPAND_TERMS terms, trigsimp/simplify only for
+    expressions of at most MAX_SIMPLIFY_OPS operations and for SIMPLIFY_SECONDS; what the budget
+    does not decide is None (callers judge it numerically or fall back to quadrature).
+    ``simplify=False`` stops before trigsimp/simplify (the cheap exact steps only).
     """
-    e = sp.expand(sp.sympify(expr))
+    e0 = sp.sympify(expr)
+    e = bounded_expand(e0)
+    expanded = e is not None
+    if not expanded:
+        e = e0
     if e == 0:
         return True
     has_float = bool(e.atoms(sp.Float))
@@ -320,35 +334,25 @@ def _decide_zero(expr: Any, symbols: Sequence[sp.Symbol], float_thr: float) -> b
         e = _chop(e, float_thr)
         if e == 0:
             return True
-    if e.is_polynomial(*symbols):
+    if expanded and e.is_polynomial(*symbols):
         return None if has_float else False  # an expanded nonzero polynomial is not zero
-    s = e
-    for simp in (sp.trigsimp, sp.simplify):
-        try:
-            s = simp(e)
-        except Exception:  # noqa: BLE001, S112  # pragma: no cover - SymPy internals
-            continue
+    for s in bounded_simplify(e) if simplify else ():
         if s == 0:
             return True
-        if s.atoms(sp.Float) and _chop(sp.expand(s), float_thr) == 0:
+        if s.atoms(sp.Float) and _chop(s, float_thr) == 0:
             return True
-    if has_float:
-        return None
-    try:
-        return s.equals(0)  # True, False (a nonzero value found), or None
-    except Exception:  # noqa: BLE001  # pragma: no cover - SymPy internals
-        return None
+    return None
 
 
 def _symbolic_zero(expr: Any, symbols: Sequence[sp.Symbol], float_thr: float) -> bool:
-    """True if expr simplifies to 0 (Float coefficients ≤ float_thr count as rounding)."""
+    """True if expr is proven 0 within the budget (Float coefficients ≤ float_thr count as rounding)."""
     return _decide_zero(expr, symbols, float_thr) is True
 
 
 def _check_finite_real(exprs: Sequence[Any], what: str) -> None:
     """ValueError if an expression is NaN/infinite or complex (it would evaluate to NaN/garbage)."""
     for i, e in enumerate(exprs, start=1):
-        if e.has(sp.nan, sp.zoo, sp.oo, -sp.oo):
+        if e.has(sp.nan, sp.zoo, sp.oo, -sp.oo) or e.atoms(sp.AccumBounds):  # atan(zoo): a range
             raise ValueError(f"{what}{i} is not finite: {e}")
         if e.has(sp.I):
             raise ValueError(f"{what}{i} is not real (it contains I): {e}")

@@ -5,8 +5,10 @@ by token (Python's :mod:`tokenize`) BEFORE it is parsed: only numbers, the coord
 (x, y, z or x1, x2, x3), the declared parameters, a fixed list of elementary functions and
 constants, and the operators ``+ - * / ** ^ ( ) ,`` pass.  The parse then runs in a namespace
 holding only those names (``__builtins__`` empty), unevaluated first, so that huge powers such as
-``9**9**9`` are refused before SymPy tries to compute them.  Every refusal is a
-:class:`FieldSyntaxError` (a ``ValueError``) with a one-line message naming what was wrong.
+``9**9**9`` or ``((9**999)**999)**999`` are refused before SymPy tries to compute them (the
+budgets of :mod:`vpforms._budget`: exponents and exact constants are bounded *after* evaluation,
+which nesting cannot get around).  Every refusal is a :class:`FieldSyntaxError` (a ``ValueError``)
+with a one-line message naming what was wrong.
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ from typing import Any
 import sympy as sp
 from sympy.parsing.sympy_parser import convert_xor, parse_expr, standard_transformations
 
+from ._budget import MAX_DIGITS, MAX_EXPONENT, MAX_NODES, tree_size
 from ._errors import VPFormsError
 from .fields import SYMBOLS
 
@@ -29,8 +32,9 @@ __all__ = ["FieldSyntaxError", "parse_expression", "parse_number", "parse_compon
 
 MAX_CHARS = 2000  # per expression
 MAX_DEPTH = 40  # nested parentheses
-MAX_EXPONENT = 1000  # |p| of a constant exponent in x**p
 MAX_LITERAL_DIGITS = 40
+# MAX_EXPONENT (|p| of a numeric exponent, after evaluation), MAX_DIGITS (exact constants) and
+# MAX_NODES (the evaluated tree) come from vpforms._budget
 
 #: the coordinates: x, y, z are aliases of x1, x2, x3 (the real symbols of vpforms.fields.SYMBOLS)
 COORDINATES: dict[str, sp.Symbol] = {
@@ -58,6 +62,33 @@ class FieldSyntaxError(VPFormsError, ValueError):
     """Text that is not an admissible field expression (one-line message)."""
 
 
+def _check_parens(text: str, what: str) -> None:
+    """One line naming the first parenthesis without its partner (the column counts from 1), and
+    the nesting limit; the text is not tokenized yet, so this also runs on a whole field
+    "a1, a2, a3" before it is split at its commas."""
+    open_at: list[int] = []
+    for i, c in enumerate(text):
+        if c == "(":
+            open_at.append(i)
+            if len(open_at) > MAX_DEPTH:
+                raise FieldSyntaxError(f"{what}: more than {MAX_DEPTH} nested parentheses")
+        elif c == ")":
+            if not open_at:
+                raise FieldSyntaxError(f"{what}: unbalanced ')' at column {i + 1} ({_context(text, i)}): "
+                                       "it closes no '('")
+            open_at.pop()
+    if open_at:
+        i = open_at[0]
+        raise FieldSyntaxError(f"{what}: unclosed '(' at column {i + 1} ({_context(text, i)}): "
+                               "every '(' needs its ')'")
+
+
+def _context(text: str, i: int, n: int = 12) -> str:
+    """The text around column i, e.g. "…+ sin(, 0" for a message."""
+    lo, hi = max(0, i - n), min(len(text), i + n)
+    return ("…" if lo else "") + repr(text[lo:hi])[1:-1] + ("…" if hi < len(text) else "")
+
+
 def _check_tokens(text: str, names: set[str], what: str) -> None:
     """Refuse everything but numbers, known names and arithmetic, before anything is parsed."""
     if not isinstance(text, str):
@@ -72,11 +103,11 @@ def _check_tokens(text: str, names: set[str], what: str) -> None:
         ord(c) < 32 and c not in "\t\n\r")) - {"."})
     if bad:
         raise FieldSyntaxError(f"{what}: character {bad[0]!r} is not allowed")
+    _check_parens(text, what)
     try:
         tokens = list(tokenize.generate_tokens(io.StringIO(text).readline))
     except (tokenize.TokenError, SyntaxError, IndentationError) as exc:
         raise FieldSyntaxError(f"{what}: cannot tokenize {text!r} ({exc.args[0]})") from None
-    depth = 0
     for tok in tokens:
         kind, s = tok.type, tok.string
         if kind in (tokenize.NEWLINE, tokenize.NL, tokenize.ENDMARKER, tokenize.INDENT, tokenize.DEDENT):
@@ -98,21 +129,37 @@ def _check_tokens(text: str, names: set[str], what: str) -> None:
                          "declared parameters)") if "x1" in names else (
                          f"; write a number such as 0.5, 2/3 or sqrt(2/3) (functions {funcs}; constants pi, E)")
                 raise FieldSyntaxError(f"{what}: unknown name {s!r}{known}")
-        elif kind == tokenize.OP and s in _OPS:
-            depth += s == "("
-            depth -= s == ")"
-            if depth > MAX_DEPTH:
-                raise FieldSyntaxError(f"{what}: more than {MAX_DEPTH} nested parentheses")
-            if depth < 0:
-                raise FieldSyntaxError(f"{what}: unbalanced ')'")
-        else:
+        elif kind != tokenize.OP or s not in _OPS:  # parentheses: _check_parens
             raise FieldSyntaxError(f"{what}: {s!r} is not allowed")
-    if depth:
-        raise FieldSyntaxError(f"{what}: unbalanced '('")
+
+
+def _log10_abs(value: sp.Expr) -> float | None:
+    """log10 |value| of a constant, by mpmath (no overflow, whatever the size; the unevaluated
+    tree is evaluated numerically, never exactly); None for 0 or what is not a number."""
+    import mpmath
+
+    parts = []
+    for c in sp.N(value, 15).as_real_imag():
+        if c.is_Float:
+            parts.append(abs(mpmath.mpf(c._mpf_)))
+        elif c != 0:
+            return None
+    m = max(parts, default=mpmath.mpf(0))
+    if not mpmath.isfinite(m):
+        return math.inf
+    return float(mpmath.log10(m)) if m else None
+
+
+#: functions whose value grows like exp of their argument: a constant argument is bounded by
+#: 10^MAX_GROWTH_DIGITS at parsing, so that evaluating a constant (mpmath) stays cheap
+_GROWTH = (sp.exp, sp.sinh, sp.cosh)
+MAX_GROWTH_DIGITS = 6
 
 
 def _check_powers(expr: sp.Basic, what: str) -> None:
-    """Refuse constant exponents above MAX_EXPONENT (inner powers first, so nothing huge is built)."""
+    """On the UNEVALUATED tree, inner powers first (so that nothing huge is ever built): refuse a
+    numeric exponent above MAX_EXPONENT and a constant power whose value has more than MAX_DIGITS
+    digits (``((9**999)**999)**999``: each exponent is small, the value is not)."""
     for arg in expr.args:
         _check_powers(arg, what)
     if isinstance(expr, sp.Pow):
@@ -121,6 +168,44 @@ def _check_powers(expr: sp.Basic, what: str) -> None:
             val = complex(sp.N(p, 15))
             if not (math.isfinite(abs(val)) and abs(val) <= MAX_EXPONENT):
                 raise FieldSyntaxError(f"{what}: the exponent {p} is too large (at most {MAX_EXPONENT})")
+    if isinstance(expr, _GROWTH) and not expr.args[0].free_symbols:
+        digits = _log10_abs(expr.args[0])  # exp(exp(exp(9))): the outer argument is ~10^3519
+        if digits is not None and digits > MAX_GROWTH_DIGITS:
+            raise FieldSyntaxError(
+                f"{what}: the argument of {expr.func.__name__} is too large (about 10^{digits:.4g}; the "
+                f"budget of parsing allows |argument| ≤ 10^{MAX_GROWTH_DIGITS})")
+    if isinstance(expr, sp.Pow):
+        if not expr.free_symbols:
+            digits = _log10_abs(expr)
+            if digits is not None and abs(digits) > MAX_DIGITS:
+                raise FieldSyntaxError(
+                    f"{what}: the constant {expr} is too large (about 10^{digits:.4g}; the budget of "
+                    f"parsing allows {MAX_DIGITS} digits)")
+
+
+def _check_evaluated(expr: sp.Expr, text: str, what: str) -> None:
+    """The budgets after SymPy's evaluation: powers combine (``((y**999)**999)**999`` is
+    y**997002999), so exponents are checked again, as are exact constants and the tree size."""
+    for p in expr.atoms(sp.Pow):
+        e = p.exp
+        if e.is_number and not e.free_symbols:
+            val = complex(sp.N(e, 15))
+            if not (math.isfinite(abs(val)) and abs(val) <= MAX_EXPONENT):
+                raise FieldSyntaxError(
+                    f"{what}: {text.strip()!r} evaluates to a power with exponent {_short_num(e)}, too "
+                    f"large (at most {MAX_EXPONENT} after evaluation)")
+    for r in expr.atoms(sp.Rational):
+        if max(abs(r.p), r.q).bit_length() > MAX_DIGITS * 3.33:
+            raise FieldSyntaxError(f"{what}: {text.strip()!r} evaluates to a constant with more than "
+                                   f"{MAX_DIGITS} digits, too large")
+    if tree_size(expr, MAX_NODES) > MAX_NODES:
+        raise FieldSyntaxError(f"{what}: {text.strip()!r} evaluates to more than {MAX_NODES} nodes, "
+                               "too large")
+
+
+def _short_num(e: sp.Expr) -> str:
+    s = str(e)
+    return s if len(s) <= 20 else s[:8] + "…" + s[-4:] + f" ({len(s)} digits)"
 
 
 def parse_expression(text: str, params: Mapping[str, Any] | Sequence[str] = (), *,
@@ -144,6 +229,8 @@ def parse_expression(text: str, params: Mapping[str, Any] | Sequence[str] = (), 
             raise FieldSyntaxError(f"{what}: {text!r} is not a scalar expression")
         _check_powers(raw, what)
         expr = parse_expr(text, local_dict=dict(local), global_dict=dict(glob), transformations=_TRANSFORMS)
+        if isinstance(expr, sp.Expr):
+            _check_evaluated(expr, text, what)
     except FieldSyntaxError:
         raise
     except (SyntaxError, TypeError, ValueError, AttributeError, sp.SympifyError, RecursionError,
@@ -152,7 +239,7 @@ def parse_expression(text: str, params: Mapping[str, Any] | Sequence[str] = (), 
         raise FieldSyntaxError(f"{what}: cannot parse {text!r} ({msg})") from None
     if not isinstance(expr, sp.Expr) or isinstance(expr, tuple):
         raise FieldSyntaxError(f"{what}: {text!r} is not a scalar expression")
-    if expr.has(sp.zoo, sp.oo, -sp.oo, sp.nan):
+    if expr.has(sp.zoo, sp.oo, -sp.oo, sp.nan) or expr.atoms(sp.AccumBounds):  # atan(1/0): a range
         raise FieldSyntaxError(f"{what}: {text!r} is not finite ({expr})")
     return expr
 
@@ -188,6 +275,8 @@ def split_components(text: str) -> list[str]:
 def parse_components(components: str | Sequence[str], params: Mapping[str, Any] = ()
                      ) -> tuple[sp.Expr, sp.Expr, sp.Expr]:
     """Three component expressions a1, a2, a3 (a string ``"a1, a2, a3"`` or a list of three)."""
+    if isinstance(components, str):
+        _check_parens(components, "field")  # before the split: "sin(, 0, 0" is one open '('
     parts = split_components(components) if isinstance(components, str) else list(components)
     if len(parts) != 3:
         raise FieldSyntaxError(f"a field needs 3 components a1, a2, a3 separated by commas; got {len(parts)}")

@@ -17,6 +17,15 @@ import jax.numpy as jnp
 import numpy as np
 import sympy as sp
 
+from ._budget import (
+    INTEGRATE_SECONDS,
+    MAX_INTEGRATE_OPS,
+    MAX_SIMPLIFY_OPS,
+    SIMPLIFY_SECONDS,
+    TimeBudgetExceeded,
+    bounded_expand,
+    time_limited,
+)
 from ._fieldops import (
     _SPLITTINGS,
     SYMBOLS,
@@ -110,7 +119,9 @@ def potential_exprs(
     s, t = sp.Dummy("s", real=True), sp.Dummy("t", real=True)
 
     def integ(expr, var, dummy, lo):
-        e = sp.expand(expr.xreplace({var: dummy}))
+        e = bounded_expand(expr.xreplace({var: dummy}))
+        if e is None:
+            raise _NoClosedForm
         r = sp.integrate(e, (dummy, lo, var))
         if r.has(sp.Integral):
             raise _NoClosedForm
@@ -127,8 +138,8 @@ def potential_exprs(
         return None
     except Exception:  # noqa: BLE001 - SymPy may raise on hard integrands: fall back to quadrature
         return None
-    pair = (sp.expand(P), sp.expand(Q))
-    if any(p.has(sp.Piecewise) for p in pair):
+    pair = (bounded_expand(P), bounded_expand(Q))
+    if any(p is None or p.has(sp.Piecewise) for p in pair):
         return None
     return pair
 
@@ -137,7 +148,21 @@ def _closed_form_potentials(field: Any, splitting: str):
     """SymPy closed forms of MATH.md §3, verified symbolically; None if integrate fails, or if the
     closed form needs a function with no JAX implementation (e.g. hyper, Shi) or complex numbers
     (e.g. fresnels(e^{iπ/4}x)·e^{−3iπ/4}, real but not evaluable in float64): the field's own
-    components then give the potentials by quadrature."""
+    components then give the potentials by quadrature.  So does a field over the budget of
+    :mod:`vpforms._budget`: a component of more than MAX_INTEGRATE_OPS operations, or integration
+    and verification taking more than INTEGRATE_SECONDS (main thread) — after which the field's
+    other splitting and its relabelled fields (which share ``_closed_form_budget``) do not try."""
+    spent = field.__dict__.setdefault("_closed_form_budget", {"over": False})  # shared with relabellings
+    if spent["over"] or any(sp.count_ops(e) > MAX_INTEGRATE_OPS for e in field.exprs):
+        return None
+    try:
+        return time_limited(INTEGRATE_SECONDS, _verified_closed_form, field, splitting)
+    except TimeBudgetExceeded:
+        spent["over"] = True  # the other splitting and the relabelled fields: quadrature at once
+        return None
+
+
+def _verified_closed_form(field: Any, splitting: str):
     pair = potential_exprs(field.exprs, field.symbols, splitting, field.origin)
     if pair is None or any(p.has(sp.I) or jax_unsupported(p) for p in pair):
         return None
@@ -274,10 +299,10 @@ def _singular_sets(expr: sp.Expr, symbols: Sequence[sp.Symbol]) -> list[tuple[sp
     out: list[tuple[sp.Expr, str]] = []
     for g, kind in raw:
         facs = [(g, 1)]
-        if g.is_polynomial(*symbols):
+        if g.is_polynomial(*symbols) and sp.count_ops(g) <= MAX_SIMPLIFY_OPS:  # within budget
             try:
-                facs = sp.factor_list(g, *symbols)[1] or facs
-            except Exception:  # noqa: BLE001, S110 - factoring is only a refinement
+                facs = time_limited(SIMPLIFY_SECONDS, sp.factor_list, g, *symbols)[1] or facs
+            except Exception:  # noqa: BLE001, S110 - factoring is only a refinement (or over time)
                 pass
         for f, _ in facs:
             if f.free_symbols & syms and (f, kind) not in out:

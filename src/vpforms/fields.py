@@ -36,7 +36,17 @@ import sympy as sp
 from sympy.core.function import AppliedUndef
 
 from . import _config  # noqa: F401  (float64)
-from ._field_input import _detect_linear, _numeric_jac_scale, _param_subs, alias_coordinates
+from ._budget import check_size
+from ._field_input import (
+    DIV_POINTS,
+    _detect_linear,
+    _param_subs,
+    _shown,
+    alias_coordinates,
+    check_divergence,
+    check_real,
+    numeric_jacobian,
+)
 from ._quadrature import DEFAULT_N
 from ._vecpot import CallablePotential, VectorPotential, curl_of
 
@@ -219,6 +229,24 @@ class Field:
         """Seeded uniform sample points in :attr:`box`."""
         return sample_box(self.box, self.n_samples if n is None else n, self.seed if seed is None else seed)
 
+    def check_real(self, points: Any, what: str = "the given points") -> None:
+        """NotRealFieldError (one line, naming the component and a point) unless the field is real
+        and finite at every one of ``points`` (N, 3), e.g. the initial conditions of a run (the
+        box is checked at construction by :meth:`from_sympy`)."""
+        pts = np.asarray(points, float).reshape(-1, 3)
+        if self.exprs is not None:
+            check_real(self.exprs, self.symbols, pts, self.name, what)
+            return
+        v = np.asarray(self(jnp.asarray(pts))).reshape(-1, 3)
+        bad = np.flatnonzero(~np.all(np.isfinite(v), axis=1))
+        if bad.size:
+            from ._errors import NotRealFieldError
+
+            i = int(bad[0])
+            comp = int(np.flatnonzero(~np.isfinite(v[i]))[0]) + 1
+            raise NotRealFieldError(f"field {self.name!r}: component a{comp} is not finite at "
+                                    f"x = {_fmt_pt(pts[i])} ({what})")
+
     # -- potentials ----------------------------------------------------------------------------
     @property
     def se_potentials(self) -> tuple[Scalar, Scalar]:
@@ -344,13 +372,18 @@ class Field:
         quadrature_n: int = DEFAULT_N,
         closed_form: bool = True,
         tol: float = 1e-12,
+        _relabelled_from: Field | None = None,
     ) -> "Field":
         """A field from three SymPy expressions in ``symbols``.
 
         ``params`` maps parameter symbols (or their names) to values substituted at construction.
-        The divergence is checked symbolically (expand → trigsimp → simplify); only if SymPy cannot
-        decide is it checked numerically at sample points of ``box`` (relative tolerance ``tol``),
-        and :attr:`divergence_check` says which.  ``potentials`` may give ``{"se": (F1, F3)}``
+        The components must be real and finite at 512 seeded points of ``box``
+        (:class:`~vpforms._errors.NotRealFieldError` otherwise, naming the component).  The
+        divergence is checked symbolically within the budgets of :mod:`vpforms._budget` (expand,
+        then trigsimp/simplify of small expressions only); what that does not decide is evaluated
+        at sample points of ``box`` (float64, relative tolerance ``tol``; for an exact field also in
+        60-digit arithmetic), and :attr:`divergence_check` says which: ``"symbolic"`` or
+        ``"numerical (…)"`` with the tolerances and the number of points.  ``potentials`` may give ``{"se": (F1, F3)}``
         and/or ``{"dl": (G1, G2)}`` as SymPy expressions; they are verified symbolically.
         """
         if isinstance(exprs, (str, sp.Basic)) or len(exprs) != 3:
@@ -378,6 +411,8 @@ class Field:
                 f"coordinates {[str(s) for s in symbols]}; give their values in params"
             )
         _check_finite_real(exprs, f"field {name!r}: component a")
+        for i, e in enumerate(exprs, start=1):
+            check_size(e, f"component a{i} of field {name!r}")
         undefined = set().union(*(e.atoms(AppliedUndef) for e in exprs))
         if undefined:
             raise ValueError(
@@ -386,32 +421,21 @@ class Field:
             )
         box = _check_box(box)
 
-        # exact divergence check; only an undecided (or Float, i.e. rounded) divergence is
-        # judged numerically — an exactly nonzero one is never accepted
-        div = sum(sp.diff(e, s) for e, s in zip(exprs, symbols))
         thr = 1e-13 * _float_scale(exprs)
-        decided = _decide_zero(div, symbols, thr)
-        if decided is True:
-            how = "symbolic"
+        if _relabelled_from is not None:
+            # a relabelling (π⁻¹, π⁻¹)·a of a checked field (vpforms._methods._relabel): real,
+            # finite and divergence free as that one is; not linear (those go to Field.linear)
+            how, linear = _relabelled_from.divergence_check, None
+            shared = _relabelled_from.__dict__.setdefault("_closed_form_budget", {"over": False})
         else:
-            pts = sample_box(box, 512, 0)
-            f = _lambdify_numpy(symbols, div)
-            vals = np.broadcast_to(np.asarray(f(*pts.T), dtype=float), (len(pts),))
-            jac_scale = _numeric_jac_scale(exprs, symbols, pts)
-            i = int(np.nanargmax(np.abs(vals))) if np.all(np.isfinite(vals)) else int(
-                np.flatnonzero(~np.isfinite(vals))[0]
-            )
-            if decided is None and np.isfinite(vals[i]) and abs(vals[i]) <= tol * jac_scale:
-                how = "numerical"
-            else:
-                raise _div_error(
-                    f"field {name!r} is not divergence free: div a = {sp.simplify(div)} "
-                    f"{'is not 0' if decided is False else 'does not simplify to 0'}; "
-                    f"the largest |div a| found at {len(pts)} points of the box "
-                    f"{box} is {abs(vals[i]):.6g} at x = {_fmt_pt(pts[i])}",
-                    abs(vals[i]),
-                    pts[i],
-                )
+            # real and finite on the box (issue #22), before anything else is computed from it
+            pts = sample_box(box, DIV_POINTS, 0)
+            check_real(exprs, symbols, pts, name, f"a sampled point of the box {box}")
+            # the divergence: exactly within budget, else numerically (and then said so); an
+            # exactly nonzero one is never accepted
+            J = numeric_jacobian(exprs, symbols, pts)
+            how = check_divergence(exprs, symbols, box, pts, J, tol, thr, name)
+            linear = _detect_linear(exprs, symbols, J)
 
         comps = tuple(_lambdify_scalar(e, symbols) for e in exprs)
         centre = [0.5 * (lo + hi) for lo, hi in box]
@@ -430,13 +454,15 @@ class Field:
             exprs=exprs,
             symbols=symbols,
             params=pvals,
-            linear_matrix=_detect_linear(exprs, symbols),
+            linear_matrix=linear,
             origin=origin,
             quadrature_n=quadrature_n,
             closed_form=closed_form,
             divergence_check=how,
             tol=tol,
         )
+        if _relabelled_from is not None:  # one time budget of closed forms for the family
+            field._closed_form_budget = shared
         if potentials is not None:
             for key, pair in _check_potentials_arg(potentials).items():
                 try:
@@ -456,7 +482,8 @@ class Field:
                 if not all(_symbolic_zero(r, symbols, thr) for r in res):
                     raise PotentialError(
                         f"the given {key.upper()} potentials do not reproduce field {name!r}: "
-                        f"{_split_formula(key)} − a = {tuple(sp.simplify(r) for r in res)}"
+                        f"{_split_formula(key)} − a = {tuple(_shown(r) for r in res)} (not proven "
+                        "0 within the budget of vpforms._budget)"
                     )
                 if key == "A":
                     field._vector_potentials.append(pair)

@@ -55,7 +55,7 @@ def _build(field, pi: Perm) -> Field:
         exprs = tuple(field.exprs[k].xreplace(sub) for k in idx)
         out = Field.from_sympy(
             exprs, s, name=name, box=box, origin=origin,
-            quadrature_n=field.quadrature_n, closed_form=field.closed_form,
+            quadrature_n=field.quadrature_n, closed_form=field.closed_form, _relabelled_from=field,
         )
         out._vector_potentials = [
             relabel_vector_potential(A, pi, s)

@@ -162,7 +162,9 @@ def _problem(args):
     params = _parse_params(getattr(args, "param", None))
     name = _fields.problem_name(args)  # --field/--field-file (issue #11) or --problem, and --x0
     if _fields.wants_user_field(args):
-        return _fields.with_x0(_fields.user_problem(args, params), args)
+        prob = _fields.with_x0(_fields.user_problem(args, params), args)
+        _fields.check_initial_conditions(prob, args)  # real and finite there (issue #22)
+        return prob
     try:
         return _fields.with_x0(problems.get(name, **params), args)
     except KeyError as exc:

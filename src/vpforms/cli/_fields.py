@@ -125,6 +125,22 @@ def user_problem(args, params: dict):
                    periodic=None, box=box, description=f"user field {comps}", sampler=box_sampler(box))
 
 
+def check_initial_conditions(prob, args) -> None:
+    """One line (CLIError) if the field is complex or not finite at an initial condition: the
+    points of --x0, or those --particles and --seed draw from the box — before any run."""
+    if isinstance(prob, _GivenX0):
+        pts, what = prob.points, f"a point of --x0 {args.x0}"
+    elif getattr(args, "particles", None):
+        pts = prob.initial_conditions(args.particles, seed=getattr(args, "seed", 0))
+        what = "an initial condition drawn from the box"
+    else:
+        return
+    try:
+        prob.field.check_real(pts, what)
+    except ValueError as exc:
+        raise CLIError(" ".join(str(exc).split())) from None
+
+
 def load_x0(path: str) -> np.ndarray:
     """(N, 3) finite initial conditions from .npy or .csv (one line errors)."""
     ext = os.path.splitext(path)[1].lower()

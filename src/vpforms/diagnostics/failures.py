@@ -155,6 +155,8 @@ def explain_failures(
     if not bad.size or not hint:
         return FailureReport(**rep)
 
+    nonfinite = RESULTS.short[RESULTS.nonfinite]
+    only_nonfinite = set(by_reason) == {nonfinite}
     strip = getattr(method, "without_recovery", None)
     bare = method if strip is None else strip()
     recovery_off = strip is not None and bare is method and getattr(method, "case", None) is not None
@@ -169,10 +171,14 @@ def explain_failures(
         fail_pts = fail_pts[np.all(np.isfinite(fail_pts), axis=1)]
         if fail_pts.shape[0]:
             smaller, smaller_ok = _smaller_h(bare, fail_pts, float(h))
-            tm = _twist_at(method, fail_pts, float(h))
-            fast_ok = _fast_ok(bare, fail_pts, float(h))
+            if not only_nonfinite:  # an overflow is not a twist failure: no twist map for it
+                tm = _twist_at(method, fail_pts, float(h))
+                fast_ok = _fast_ok(bare, fail_pts, float(h))
     text = _hint_text(method, bare, recovery_off, float(h) if h is not None else None, smaller, smaller_ok,
                       tm, cli, fast_ok)
+    if nonfinite in by_reason:
+        text = _overflow_hint(by_reason[nonfinite], only_nonfinite, float(h) if h is not None else None,
+                              smaller, cli) + ("" if only_nonfinite else f"; for the other failures: {text}")
     return FailureReport(**rep, smaller_h=smaller, smaller_h_ok=smaller_ok, twist=tm,
                          recovery_off=recovery_off, fast_ok=fast_ok, hint=text)
 
@@ -223,6 +229,19 @@ def _twist_at(method, pts, h):
         return twist_map(method, pts, h=h, cases="classes")
     except (TypeError, ValueError, VPFormsError):
         return None
+
+
+def _overflow_hint(n: int, only: bool, h, smaller, cli: bool) -> str:
+    """The hint for non-finite failures (issue #22): the field overflowed or left its real domain."""
+    who = "the failed steps" if only else f"the {n} non-finite failure(s)"
+    text = (f"{who} produced a non-finite or complex value (NaN/inf): the field overflowed or left its "
+            "real domain along these orbits (e.g. exp of a large argument, sqrt or log of a negative "
+            "number) — not a twist failure; check the field where the particles went, shrink the "
+            + ("--box or --x0" if cli else "box or the initial conditions") + ", or shorten the run")
+    if only and h is not None and smaller is not None:
+        text += (f"; here a smaller step avoids it: try {'--h' if cli else 'h ='} {smaller:g} (every "
+                 "failed step succeeds at that step size)")
+    return text
 
 
 def _hint_text(method, bare, recovery_off, h, smaller, smaller_ok, tm, cli, fast_ok=None) -> str:
