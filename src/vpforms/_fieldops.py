@@ -14,7 +14,7 @@ import sympy as sp
 from sympy.core.function import AppliedUndef
 
 from . import _config  # noqa: F401  (float64)
-from ._budget import bounded_expand, bounded_simplify
+from ._budget import SIMPLIFY_SECONDS, TimeBudgetExceeded, bounded_expand, bounded_simplify, time_limited
 from ._errors import NotDivergenceFreeError, VPFormsError
 
 #: Default coordinate symbols x1, x2, x3 (real).
@@ -336,12 +336,35 @@ def _decide_zero(expr: Any, symbols: Sequence[sp.Symbol], float_thr: float,
             return True
     if expanded and e.is_polynomial(*symbols):
         return None if has_float else False  # an expanded nonzero polynomial is not zero
+    if expanded and e.is_rational_function(*symbols):
+        # a rational function is 0 iff the numerator over a common denominator is the zero
+        # polynomial: exact, and cheap where the expansion stays within budget
+        decided = _rational_zero(e, float_thr, has_float)
+        if decided is not None:
+            return decided
     for s in bounded_simplify(e) if simplify else ():
         if s == 0:
             return True
         if s.atoms(sp.Float) and _chop(s, float_thr) == 0:
             return True
     return None
+
+
+def _rational_zero(e: Any, float_thr: float, has_float: bool) -> bool | None:
+    """Is the rational function e zero: its numerator over a common denominator, expanded within
+    MAX_EXPAND_TERMS and SIMPLIFY_SECONDS (None when over budget; a nonzero numerator with Float
+    coefficients is undecided, as in :func:`_decide_zero`)."""
+    try:
+        num = time_limited(SIMPLIFY_SECONDS, lambda: bounded_expand(sp.fraction(sp.together(e))[0]))
+    except TimeBudgetExceeded:
+        return None
+    if num is None:
+        return None
+    if has_float:
+        num = _chop(num, float_thr)
+    if num == 0:
+        return True
+    return None if has_float else False
 
 
 def _symbolic_zero(expr: Any, symbols: Sequence[sp.Symbol], float_thr: float) -> bool:

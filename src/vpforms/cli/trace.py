@@ -55,11 +55,8 @@ def _cmd_run(args, console) -> int:
         "t final": float(sol.ts[-1]),
         "saved states per particle": int(sol.ts.size),
         "failed particles": sol.n_failed,
-<<<<<<< HEAD
         "recovered steps": recovered_text(sol, method),
-=======
         **({"divergence check": prob.field.divergence_check} if getattr(prob, "source", None) == "user" else {}),
->>>>>>> i22-fields
         "wall time (s, incl. compile)": round(sol.stats["wall_s"], 3),
         "ns per particle-step (incl. compile)": round(sol.stats["ns_per_particle_step"], 1),
     }
