@@ -18,6 +18,13 @@ from vpforms.cli import build_parser, main
 from .test_cli import _one_line_error
 
 
+@pytest.fixture(autouse=True)
+def _unwrapped_tables(monkeypatch):
+    """Summary rows on one line: the CLI sizes its tables from COLUMNS, which an xdist worker may
+    set to 80 (a long row then wraps and a row-by-row comparison fails)."""
+    monkeypatch.setenv("COLUMNS", "250")
+
+
 @pytest.fixture
 def points(tmp_path):
     """5 initial conditions in a .npy file (fewer than every --particles default)."""
