@@ -20,7 +20,7 @@ import sys
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # benchmarks/_bench.py
-from _bench import machine, parser  # noqa: E402
+from _bench import machine, parser, write_results  # noqa: E402
 
 SRC = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "src")
 
@@ -80,10 +80,7 @@ def main(argv=None) -> int:
                       f"Source tree: `{os.path.relpath(args.src)}`.  'ready to step' = field_from_text + the "
                       "method (what the command line does before its first step, imports excluded).", "",
                       *rows, "", machine("bench_field_prep.py", time.perf_counter() - t0, args.smoke), ""])
-    with open(args.out, "w") as fh:
-        fh.write(text)
-    print(text)
-    return 0
+    return write_results(args.out, text)
 
 
 if __name__ == "__main__":

@@ -22,7 +22,7 @@ import time
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # benchmarks/_bench.py
-from _bench import machine, parser  # noqa: E402
+from _bench import machine, parser, write_results  # noqa: E402
 
 from vpforms import compose, integrate, scheme
 from vpforms.diagnostics import fit_order, reference_solution
@@ -200,10 +200,7 @@ def main(argv=None) -> int:
         L.append(f"| {label}: bare lost | " + " | ".join(f"{k} of {o_N}" for k in d["bare_failed"]) + " | | |")
     L.append("")
     text = "\n".join(L) + "\n"
-    with open(args.out, "w") as fh:
-        fh.write(text)
-    print(text)
-    return 0
+    return write_results(args.out, text)
 
 
 if __name__ == "__main__":

@@ -28,7 +28,7 @@ def main() -> int:
     from vpforms.coils import read_makegrid
     from vpforms.fieldlines import toroidal_section
     from vpforms.problems.coil_fields import spline_coil_field
-    from vpforms.toroidal import to_toroidal
+    from vpforms.toroidal import cartesian_field, to_toroidal
 
     coils = read_makegrid(os.path.join(work, P["coils_file"]))
     nfp = coils.nfp
@@ -39,7 +39,6 @@ def main() -> int:
     R0, Z0 = np.asarray(P["R0"]), np.asarray(P["Z0"])
     x0 = np.asarray(to_toroidal(np.c_[R0, np.zeros_like(R0), Z0]))
     m = vpforms.compose(vpforms.scheme(field, "SE+SE", recover=False), order=2)
-    period = 2 * np.pi / nfp
     t_transit = 2 * np.pi * (R0.max() + 0.05) ** 2  # φ̇ = B_φ/R ≈ 1/R² (B0 R0 = 1 T m): time of one transit, generous
 
     def section(h, transits):
@@ -69,11 +68,8 @@ def main() -> int:
     curl = jax.jit(field)
 
     def B_xyz(xyz):
-        p = np.asarray(to_toroidal(xyz))
-        a = np.asarray(curl(p))
-        Rr, ph = np.sqrt(2 * p[:, 0]), p[:, 1]
-        BR, Bp = a[:, 0] / Rr, a[:, 1] * Rr
-        return np.c_[BR * np.cos(ph) - Bp * np.sin(ph), BR * np.sin(ph) + Bp * np.cos(ph), a[:, 2]]
+        p = to_toroidal(xyz)
+        return np.asarray(cartesian_field(curl(p), p))
 
     n_acc = P["accuracy_transits"] * nfp
     t_ref, (Rr, Zr) = timed(lambda: dop853_section(B_xyz, R0, Z0, nfp, n_acc))

@@ -319,6 +319,12 @@ class PhiTimeCoordinates:
                 f"{err[i]:.3g} at (v, φ, Z) = {_fmt(y[i])}")
 
     def _newton_inverse(self):
+        """U(v, φ, Z) by Newton safeguarded with bisection on the box's u bracket, as a custom_jvp.
+
+        Not :func:`vpforms._newton.newton_scalar` (the engine's solver): its final live Newton step
+        makes *first* derivatives exact, but the steps on this field differentiate K (hence U) up
+        to third order, and the custom_jvp below, whose rule calls U again, is exact at every order;
+        the bracket also keeps U inside the u interval (NaN outside) instead of diverging."""
         V = self._V
         u_lo, u_hi = self.box[0]
         max_iter = self.newton_max_iter

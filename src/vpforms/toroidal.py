@@ -37,6 +37,7 @@ from .fields import Field
 __all__ = [
     "ToroidalPotential",
     "box_from_cylindrical",
+    "cartesian_field",
     "contravariant_field",
     "covariant_potential",
     "cylindrical_field",
@@ -74,6 +75,15 @@ def cylindrical_field(a: Any, u: Any) -> tuple:
     """The inverse of :func:`contravariant_field`: (a¹, a², a³) at u → (B_R, B_φ, B_Z)."""
     R = jnp.sqrt(2.0 * jnp.asarray(u, float))
     return a[0] / R, a[1] * R, a[2]
+
+
+def cartesian_field(a: Any, uphiz: Any) -> Any:
+    """The (u, φ, Z) flow ``a`` (..., 3) at the points ``uphiz`` (..., 3) as Cartesian B (..., 3):
+    :func:`cylindrical_field`, then (B_R, B_φ) rotated by φ."""
+    a, p = jnp.asarray(a, float), jnp.asarray(uphiz, float)
+    BR, Bphi, BZ = cylindrical_field(jnp.moveaxis(a, -1, 0), p[..., 0])
+    c, s = jnp.cos(p[..., 1]), jnp.sin(p[..., 1])
+    return jnp.stack([BR * c - Bphi * s, BR * s + Bphi * c, BZ], axis=-1)
 
 
 def box_from_cylindrical(R: Sequence[float], phi: Sequence[float], Z: Sequence[float]) -> tuple:

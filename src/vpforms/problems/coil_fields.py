@@ -36,7 +36,7 @@ from .._vecpot import SumPotential, curl_of
 from ..coils import CoilSet, circular_tokamak, l2_stellarator
 from ..coils._ring import CircularRingPotential
 from ..grids import cylindrical_potential
-from ..toroidal import to_toroidal, toroidal_field
+from ..toroidal import cartesian_field, to_toroidal, toroidal_field
 from ._base import Problem
 
 __all__ = ["default_stellarator", "default_tokamak", "make_stellarator", "make_tokamak"]
@@ -61,12 +61,8 @@ def _spline_error(field, coils, extra_B, box_R, box_Z, nfp, seed=0, n=400) -> fl
     xyz = pts[:, [0, 1, 2]].copy()
     xyz[:, 0], xyz[:, 1] = pts[:, 0] * np.cos(pts[:, 1]), pts[:, 0] * np.sin(pts[:, 1])
     B = np.asarray(coils.B(xyz)) + (0 if extra_B is None else extra_B(xyz))
-    p = np.asarray(to_toroidal(xyz))
-    a = np.asarray(field(p))
-    R, phi = pts[:, 0], pts[:, 1]
-    BR, Bphi, BZ = a[:, 0] / R, a[:, 1] * R, a[:, 2]
-    Bx, By = BR * np.cos(phi) - Bphi * np.sin(phi), BR * np.sin(phi) + Bphi * np.cos(phi)
-    return float(np.max(np.abs(np.c_[Bx, By, BZ] - B)) / np.max(np.abs(B)))
+    p = to_toroidal(xyz)
+    return float(np.max(np.abs(np.asarray(cartesian_field(field(p), p)) - B)) / np.max(np.abs(B)))
 
 
 def _x0(R_axis: float, offsets) -> np.ndarray:
@@ -149,11 +145,8 @@ def _ring_B(ring: CircularRingPotential):
     curl = jax.jit(jax.vmap(curl_of(ring.components())))
 
     def B(xyz):
-        p = np.asarray(to_toroidal(xyz))
-        a = np.asarray(curl(p))
-        R, phi = np.sqrt(2 * p[:, 0]), p[:, 1]
-        BR, Bphi = a[:, 0] / R, a[:, 1] * R
-        return np.c_[BR * np.cos(phi) - Bphi * np.sin(phi), BR * np.sin(phi) + Bphi * np.cos(phi), a[:, 2]]
+        p = to_toroidal(xyz)
+        return np.asarray(cartesian_field(curl(p), p))
 
     return B
 
