@@ -1,66 +1,5 @@
-"""φ as the independent variable, still exactly volume preserving (issue #24, item 1).
-
-In the toroidal coordinates of unit Jacobian x = (u = R²/2, φ, Z) of :mod:`vpforms.toroidal` a field
-line is the flow of a = ∇×A, a^i = ε^{ijk} ∂_j A_k (A covariant). Tracing it with φ as the time
-(one step = a fixed toroidal angle, so the sections φ = const are step boundaries) is a change of
-time, a → a/a², and a change of coordinates, made here so that the result is again a divergence-
-free field with a vector potential — and every class, case and composition of vpforms applies.
-
-1. **Gauge A_u = 0.** χ(u, φ, Z) = ∫_{u_ref}^{u} A_u du' (the potential's own antiderivative along
-   axis 0), A' = A − ∇χ: A'_u = 0, A'_φ = A_φ − ∂_φχ, A'_Z = A_Z − ∂_Zχ (∂χ by autodiff). Then
-
-       a¹ = ∂_φA'_Z − ∂_ZA'_φ,   a² = B^φ = −∂_uA'_Z,   a³ = ∂_uA'_φ.
-
-2. **The toroidal flux as a coordinate.** Where a² has one sign s = ±1 on the box, v := −s·A'_Z is
-   strictly increasing in u (∂_u v = |a²|), so y = (v, φ, Z) are coordinates. u = U(v, φ, Z) is the
-   inverse (scalar Newton safeguarded by bisection on the box's u interval, or a closed form
-   ``inverse``); U is a :func:`jax.custom_jvp` by the implicit function theorem,
-
-       ∂U/∂v = 1/∂_uv,   ∂U/∂φ = −∂_φv/∂_uv,   ∂U/∂Z = −∂_Zv/∂_uv,
-
-   whose rule calls U again, so every derivative order vpforms takes by autodiff is exact.
-
-3. **The φ-time field.** K(v, φ, Z) := s·A'_φ(U(v, φ, Z), φ, Z). Along a field line
-
-       dZ/dφ = ∂K/∂v,   dv/dφ = −∂K/∂Z
-
-   (Hamilton's equations, (Z, v) canonical; dv ∧ dZ = |B^φ| du ∧ dZ is the toroidal-flux form of
-   a section φ = const, so v is a toroidal flux): the flow with φ' = 1 is, in y = (v, φ, Z),
-
-       b = (−∂_ZK, 1, ∂_vK) = ∇_y × C,   C = (C_v, C_φ, C_Z) = (0, K, −v),
-
-   C being s·A' written in the new coordinates (A' = A'_φ dφ + A'_Z dZ = s(K dφ − v dZ)). b is
-   divergence free for the volume dv dφ dZ = |a²| du dφ dZ — the invariant volume of the φ-time
-   flow (a time change multiplies the invariant density by |a²|) — and the map it induces on a
-   section φ = const preserves the toroidal-flux area dv ∧ dZ. A vpforms method on b is therefore
-   *exactly* volume preserving in (v, φ, Z) and, where it advances φ by exactly h, its section map
-   is exactly area preserving (its Jacobian is block triangular: det ∂(v', Z')/∂(v, Z) = 1).
-
-Orientation: φ' = +1 always. Where B^φ < 0 on the whole box (s = −1) the lines are followed in the
-direction of increasing φ, i.e. backwards along B; the traced curves (and sections) are the same.
-Where B^φ changes sign (vanishes) in the box a field line turns back toroidally, φ is not a time,
-and the construction is impossible: :func:`phi_time_field` raises :class:`PhiTimeError` naming a
-point where B^φ = 0; trace such a region by time stepping (:func:`vpforms.toroidal.toroidal_field`
-with :func:`vpforms.scheme`).
-
-Which steps advance φ by exactly h: the pair a case is built from splits b into two curls; when the
-gauge of that pair sets C_v or C_Z to zero (χ = 0 or χ = −v(Z − c), both exact here), the split is
-b = (−∂_ZK, 0, ∂_vK) + (0, 1, 0) and φ advances by h to rounding; a pair gauged along φ
-(χ = ∫K dφ by quadrature) mixes the φ-translation into both parts. :func:`advances_phi_exactly`
-states the rule for all five classes, :func:`phi_exact_cases` lists the 24 φ-exact cases (checked
-against the steps of all 36 by ``tests/test_phitime.py``), :func:`phi_time_scheme` builds one; for
-the others a section needs the interpolation of :func:`vpforms.diagnostics.poincare_section`.
-
-Accuracy: b is exactly divergence free whatever the rounding of K; it is the field-line flow to
-rounding when A_u ≡ 0 (χ = 0) and to the Gauss–Legendre error of χ otherwise (the gauge drops the
-quadrature's residual A'_u ≈ 0).
-
-The (v, φ, Z) box of the field is the largest rectangle inside the image of the (u, φ, Z) box:
-v ∈ [max_{φ,Z} v(u_min, φ, Z), min_{φ,Z} v(u_max, φ, Z)] sampled on a grid of the (φ, Z) faces,
-shrunk by ``margin`` of its width at both ends (the grid may miss a face's extreme); every point of
-it has U in the u interval. Outside the image of the u interval U is NaN (``field.inside`` is false
-there, so a step that leaves stops with ``RESULTS.left_domain``).
-"""
+"""The coordinates (u, φ, Z) ↔ (v, φ, Z) of φ-time and the potential C = (0, K, −v) (steps 1–3 of
+:mod:`vpforms.phitime`)."""
 
 from __future__ import annotations
 
@@ -72,27 +11,12 @@ import jax.numpy as jnp
 import numpy as np
 from jax import lax
 
-from . import _config  # noqa: F401  (float64)
-from ._case import Case, cases
-from ._methods import Method, compose, scheme
-from ._methods._representatives import REPRESENTATIVES
-from ._methods.scheme import class_name
-from ._potentials import _zero_between
-from ._quadrature import DEFAULT_N
-from ._vecpot import VectorPotential, _zero
-from .fields import Field
+from .. import _config  # noqa: F401  (float64)
+from .._potentials import _zero_between
+from .._quadrature import DEFAULT_N
+from .._vecpot import VectorPotential, _zero
 
-__all__ = [
-    "PhiTimeCoordinates",
-    "PhiTimeError",
-    "PhiTimePotential",
-    "advances_phi_exactly",
-    "from_phi_time",
-    "phi_exact_cases",
-    "phi_time_field",
-    "phi_time_scheme",
-    "to_phi_time",
-]
+__all__ = ["PhiTimeCoordinates", "PhiTimeError", "PhiTimePotential"]
 
 Scalar = Callable[..., Any]
 
@@ -419,138 +343,6 @@ class PhiTimePotential(VectorPotential):
 
             return chi
         return super().antiderivative(k, c, n)
-
-
-def phi_time_field(A: VectorPotential | Callable[[Any], Any], box: Any, *, nfp: int | None = None,
-                   u_ref: float | None = None, inverse: Scalar | None = None, a_u: str = "auto",
-                   margin: float = 0.02, n_check: int = 17, name: str = "phi-time field",
-                   **kw: Any) -> Field:
-    """The field-line flow of ∇×A with φ as the time, as a :class:`~vpforms.Field` in (v, φ, Z).
-
-    ``A``: a (u, φ, Z) :class:`~vpforms._vecpot.VectorPotential` (e.g.
-    ``vpforms.toroidal.ToroidalPotential(A_cartesian, nfp)``) or a Cartesian A(x) (wrapped in one,
-    with ``nfp``); ``box``: the (u, φ, Z) box (:func:`vpforms.toroidal.box_from_cylindrical`) on which
-    B^φ keeps one sign (else :class:`PhiTimeError`, checked on an ``n_check``³ grid) — the Newton
-    bracket of U and the domain of the field. ``u_ref``: the base of χ = ∫_{u_ref}^u A_u (default
-    the u midpoint); ``a_u``: "auto" (χ = 0 if A_u vanishes to 1e-14 relative on the grid, else
-    quadrature), "zero" or "quadrature"; ``inverse``: a closed-form U(v, φ, Z) (checked) instead of
-    Newton; ``margin``: the fraction of the v range dropped at each end of the (v, φ, Z) box.
-    Further keywords go to :meth:`vpforms.Field.from_vector_potential` (``origin`` defaults to
-    (v_mid, φ_min, Z_mid) of the (v, φ, Z) box).
-
-    The result has ``coordinates`` "phi-time (v, φ, Z) …", ``periods`` (None, 2π/nfp, None) for a
-    φ-periodic A, ``phi_time`` the :class:`PhiTimeCoordinates` (for :func:`to_phi_time`,
-    :func:`from_phi_time`) and ``inside`` (a step that leaves the image of the u interval stops
-    with ``RESULTS.left_domain``).
-    """
-    if not isinstance(A, VectorPotential):
-        from .toroidal import ToroidalPotential
-
-        A = ToroidalPotential(A, 1 if nfp is None else nfp)
-    elif nfp is not None:
-        raise ValueError("nfp is the potential's (ToroidalPotential(A, nfp)); do not pass it again")
-    coords = PhiTimeCoordinates(A, box, u_ref=u_ref, inverse=inverse, a_u=a_u, margin=margin,
-                                n_check=n_check, quadrature_n=kw.get("quadrature_n", DEFAULT_N))
-    C = PhiTimePotential(coords)
-    yb = coords.ybox
-    kw.setdefault("origin", (0.5 * (yb[0][0] + yb[0][1]), yb[1][0], 0.5 * (yb[2][0] + yb[2][1])))
-    field = Field.from_vector_potential(C, box=yb, name=name, **kw)
-    field.coordinates = coords.describe()
-    field.periods = (None, coords.period, None)
-    field.phi_time = coords
-    field.inside = coords.inside
-    return field
-
-
-#: per class, the axis (1-based) of the field the class recipe treats specially, on the relabelled
-#: field it runs on: the gauge axis of its pair (SE: x₂, DL: x₃) or the role j of Quispel's
-#: correction map (S1: x₂, S2: x₃; the recipe of vpforms.scheme for nonlinear fields)
-_SPECIAL_AXIS = {"SE+SE": 2, "DL+DL": 3, "SE+DL": 3, "S1": 2, "S2": 3}
-
-
-def advances_phi_exactly(case: Case | str | tuple) -> bool:
-    """Whether the step of ``case`` on a φ-time field advances φ by exactly h (to rounding).
-
-    The rule: the axis its class treats specially (:data:`_SPECIAL_AXIS`), mapped back through the
-    relabelling π the case is built with (relabelled x_k is the field's x_{π(k)}; for the SE+DL
-    3-cycles τ₀⁻¹, of the switched case whose adjoint it is), must not be φ (axis 2). Then the pair
-    is C's own gauge along v (χ = 0) or Z (χ = −v(Z − c)), which splits b into the φ-translation
-    (0, 1, 0) and the frozen-φ flow (−∂_ZK, 0, ∂_vK), or the correction map's φ update is explicit
-    (X_φ = φ + h·1). Verified on all 36 cases by ``tests/test_phitime.py`` (slow tier): 24 are
-    φ-exact — S1 4, S2 4, SE+SE 4, DL+DL 4, SE+DL 8 — and those are also the cheap ones (no
-    quadrature of K along φ). The DL classes must run by their θ-stages (``fast=True``): their
-    φ-exact pairs contain a potential linear in the momentum, where the engine's DL generating form
-    fails its twist condition.
-    """
-    c = _as_case(case)
-    rep = REPRESENTATIVES[c.cls]
-    pi = c.sigma * rep.sigma.inverse()
-    if pi * rep.Sigma != c.Sigma:  # τ(c) = τ₀⁻¹: the adjoint of the switched case (vpforms.scheme)
-        c = c.switched()
-        pi = c.sigma * rep.sigma.inverse()
-    return pi(_SPECIAL_AXIS[c.cls]) != 2
-
-
-def phi_exact_cases(cls: str | None = None) -> tuple[Case, ...]:
-    """The cases (of class ``cls``, or all) whose steps advance φ by exactly h
-    (:func:`advances_phi_exactly`), in the order of :func:`vpforms.cases`."""
-    want = None if cls is None else class_name(cls)
-    return tuple(c for c in cases() if (want is None or c.cls == want) and advances_phi_exactly(c))
-
-
-def phi_time_scheme(field: Field, cls: str = "SE+SE", *, order: int | None = None,
-                    composition: str | None = None, recover: bool = False, **options: Any) -> Method:
-    """A method on a φ-time field whose every step advances φ by exactly h, so that the sections
-    φ = φ₀ + k·h are step boundaries: the first φ-exact case of class ``cls``
-    (:func:`phi_exact_cases`), by θ-stages for the DL classes (``fast=True``), composed to
-    ``order`` (2, 4, 6; :func:`vpforms.compose`, ``composition`` its scheme name) if given.
-
-    ``recover`` defaults to False: a recovered step may switch to a case that is not φ-exact (and
-    whose pair is a quadrature of K along φ, expensive to compile); where a step fails, the line
-    has usually left the (v, φ, Z) box (``RESULTS.left_domain``)."""
-    if not hasattr(field, "phi_time"):
-        raise TypeError("phi_time_scheme needs a φ-time field (vpforms.phitime.phi_time_field)")
-    key = class_name(cls)
-    if key in ("DL+DL", "SE+DL"):
-        options.setdefault("fast", True)
-    method = scheme(field, phi_exact_cases(key)[0], recover=recover, **options)
-    if order is None:
-        if composition is not None:
-            raise ValueError("composition needs an order")
-        return method
-    return compose(method, order, composition)
-
-
-def _as_case(case: Any) -> Case:
-    if isinstance(case, Case):
-        return case
-    if isinstance(case, str):
-        return REPRESENTATIVES[class_name(case)]
-    return Case(*case)
-
-
-def _coords_of(obj: Any) -> PhiTimeCoordinates:
-    for o in (obj, getattr(obj, "phi_time", None), getattr(getattr(obj, "field", None), "phi_time", None)):
-        if isinstance(o, PhiTimeCoordinates):
-            return o
-        if isinstance(getattr(o, "phi_time", None), PhiTimeCoordinates):
-            return o.phi_time
-    raise TypeError(f"expected a phi-time field, method or PhiTimeCoordinates; got {type(obj).__name__}")
-
-
-def to_phi_time(field_or_map: Any, x_uphiz: Any) -> jax.Array:
-    """(u, φ, Z) → (v, φ, Z) for points of shape (..., 3) (``field_or_map``: a φ-time field, a method
-    on one, or its :class:`PhiTimeCoordinates`); traceable (jit, vmap)."""
-    c = _coords_of(field_or_map)
-    x = jnp.asarray(x_uphiz, float)
-    return c._to(x.reshape(-1, 3)).reshape(x.shape)
-
-
-def from_phi_time(field_or_map: Any, y_vphiz: Any) -> jax.Array:
-    """(v, φ, Z) → (u, φ, Z) for points of shape (..., 3); NaN in u off the box's u interval."""
-    c = _coords_of(field_or_map)
-    y = jnp.asarray(y_vphiz, float)
-    return c._from(y.reshape(-1, 3)).reshape(y.shape)
 
 
 def _fmt(p: Sequence[float]) -> str:
