@@ -65,6 +65,7 @@ there, so a step that leaves stops with ``RESULTS.left_domain``).
 from ._cases import advances_phi_exactly, phi_exact_cases, phi_time_scheme
 from ._coordinates import PhiTimeCoordinates, PhiTimeError, PhiTimePotential
 from ._field import from_phi_time, phi_time_field, to_phi_time
+from ._symbolic import toroidal_potential_exprs
 
 __all__ = [
     "PhiTimeCoordinates",
@@ -76,4 +77,5 @@ __all__ = [
     "phi_time_field",
     "phi_time_scheme",
     "to_phi_time",
+    "toroidal_potential_exprs",
 ]

@@ -2,17 +2,22 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import warnings
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import jax
 import jax.numpy as jnp
+import numpy as np
+import sympy as sp
 
+from .._fieldops import _lambdify_scalar
 from .._quadrature import DEFAULT_N
-from .._vecpot import VectorPotential
+from .._vecpot import CallablePotential, VectorPotential
 from ..fields import Field
 from ..toroidal import ToroidalPotential
 from ._coordinates import PhiTimeCoordinates, PhiTimePotential
+from ._symbolic import NoClosedForm, is_sympy_potential, symbolic_phi_time_field
 
 __all__ = ["from_phi_time", "phi_time_field", "to_phi_time"]
 
@@ -22,7 +27,7 @@ Scalar = Callable[..., Any]
 def phi_time_field(A: VectorPotential | Callable[[Any], Any], box: Any, *, nfp: int | None = None,
                    u_ref: float | None = None, inverse: Scalar | None = None, a_u: str = "auto",
                    margin: float = 0.02, n_check: int = 17, name: str = "phi-time field",
-                   **kw: Any) -> Field:
+                   symbols: Sequence[sp.Symbol] | None = None, **kw: Any) -> Field:
     """The field-line flow of ∇×A with φ as the time, as a :class:`~vpforms.Field` in (v, φ, Z).
 
     ``A``: a (u, φ, Z) :class:`~vpforms._vecpot.VectorPotential` (e.g.
@@ -36,11 +41,33 @@ def phi_time_field(A: VectorPotential | Callable[[Any], Any], box: Any, *, nfp: 
     Further keywords go to :meth:`vpforms.Field.from_vector_potential` (``origin`` defaults to
     (v_mid, φ_min, Z_mid) of the (v, φ, Z) box).
 
+    ``A`` may also be three **SymPy expressions** (A_u, A_φ, A_Z) in ``symbols`` = (u, φ, Z) (default:
+    its free symbols named u, phi, Z; :func:`toroidal_potential_exprs` converts a Cartesian one;
+    ``nfp`` the period 2π/nfp of φ, default 1). Then χ, U and K are found by SymPy where it can
+    (:mod:`vpforms.phitime._symbolic`) and the field is a closed-form :meth:`~vpforms.Field.from_sympy`
+    field: every backend steps it, the native C kernels included. Where SymPy finds no χ or U within
+    its budget, the field is built from the lambdified potential as above (JAX only) and a
+    ``UserWarning`` says why; ``inverse`` and ``a_u`` apply to that path only.
+
     The result has ``coordinates`` "phi-time (v, φ, Z) …", ``periods`` (None, 2π/nfp, None) for a
     φ-periodic A, ``phi_time`` the :class:`PhiTimeCoordinates` (for :func:`to_phi_time`,
-    :func:`from_phi_time`) and ``inside`` (a step that leaves the image of the u interval stops
-    with ``RESULTS.left_domain``).
+    :func:`from_phi_time`) and, for a callable A, ``inside`` (a step that leaves the image of the u
+    interval stops with ``RESULTS.left_domain``; a closed-form U is defined beyond it).
     """
+    if is_sympy_potential(A):
+        syms = _toroidal_symbols(A, symbols)
+        period = 2 * np.pi / (1 if nfp is None else int(nfp))
+        try:
+            return symbolic_phi_time_field(tuple(A), syms, box, period=period, u_ref=u_ref,
+                                           margin=margin, n_check=n_check, name=name, **kw)
+        except NoClosedForm as why:
+            warnings.warn(f"φ-time field {name!r}: no closed form ({why}); it is built from the "
+                          "lambdified potential with U by Newton and runs on the JAX backend only",
+                          stacklevel=2)
+        A = CallablePotential([_lambdify_scalar(sp.sympify(a), syms) for a in A], (None, period, None))
+        nfp = None
+    elif symbols is not None:
+        raise ValueError("symbols is for a SymPy vector potential; A is not three SymPy expressions")
     if not isinstance(A, VectorPotential):
         A = ToroidalPotential(A, 1 if nfp is None else nfp)
     elif nfp is not None:
@@ -56,6 +83,26 @@ def phi_time_field(A: VectorPotential | Callable[[Any], Any], box: Any, *, nfp: 
     field.phi_time = coords
     field.inside = coords.inside
     return field
+
+
+def _toroidal_symbols(A: Sequence[Any], symbols: Sequence[sp.Symbol] | None) -> tuple:
+    """``symbols`` checked, or the free symbols of ``A`` named u, phi (or φ), Z."""
+    free = set().union(*(sp.sympify(a).free_symbols for a in A))
+    if symbols is None:
+        by_name = {str(s): s for s in free}
+        names = ("u", "phi" if "phi" in by_name else "φ", "Z")
+        if not set(by_name) <= set(names):
+            raise ValueError(f"give symbols=(u, phi, Z) for the SymPy vector potential: its free symbols "
+                             f"are {sorted(by_name)}")
+        return tuple(by_name.get(n, sp.Symbol(n, real=True)) for n in names)
+    syms = tuple(symbols)
+    if len(syms) != 3 or not all(isinstance(s, sp.Symbol) for s in syms) or len(set(syms)) != 3:
+        raise ValueError(f"symbols must be three distinct SymPy symbols (u, φ, Z); got {symbols!r}")
+    extra = free - set(syms)
+    if extra:
+        raise ValueError(f"the vector potential has free symbols {sorted(map(str, extra))} besides "
+                         f"(u, φ, Z) = {tuple(map(str, syms))}: substitute their values")
+    return syms
 
 
 def _coords_of(obj: Any) -> PhiTimeCoordinates:
