@@ -144,19 +144,6 @@ def _chunked(run, x0, h, n, chunk):
     return out
 
 
-def _quote_in_readme(path: str, lines: list[str]) -> None:
-    """Replace the text between the bench markers of ``path`` by ``lines``."""
-    start, end = "<!-- bench:start -->", "<!-- bench:end -->"
-    with open(path) as f:
-        text = f.read()
-    if start not in text or end not in text:
-        raise SystemExit(f"{path} has no {start} … {end} block")
-    head, rest = text.split(start, 1)
-    _, tail = rest.split(end, 1)
-    with open(path, "w") as f:
-        f.write(head + start + "\n" + "\n".join(lines) + "\n" + end + tail)
-
-
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--sizes", default="1000,100000,1000000")
@@ -171,8 +158,8 @@ def main(argv=None) -> int:
     ap.add_argument("--out", default=os.path.join(os.path.dirname(__file__), "results.md"))
     ap.add_argument("--smoke", action="store_true", help="tiny sizes for CI; no timing claims")
     ap.add_argument("--readme", default=None,
-                    help="also replace the block between <!-- bench:start --> and <!-- bench:end --> "
-                         "in this file (e.g. README.md) with the table")
+                    help="then regenerate the quote blocks of this file (e.g. README.md) from the "
+                         "results files (benchmarks/quote.py; README.md quotes benchmarks/results.md)")
     args = ap.parse_args(argv)
     if args.smoke:
         args.sizes, args.T, args.repeats, args.chunk = "16,40", 1.0, 1, 16
@@ -335,8 +322,13 @@ def main(argv=None) -> int:
     print("\n".join(lines))
     print(f"\nwritten: {args.out}")
     if args.readme:
-        _quote_in_readme(args.readme, lines[2:])
-        print(f"quoted in: {args.readme}")
+        import quote  # benchmarks/quote.py: the one mechanism that quotes results files in documents
+
+        with open(args.readme, encoding="utf-8") as f:
+            text = f.read()
+        with open(args.readme, "w", encoding="utf-8") as f:
+            f.write(quote.render(text, where=args.readme))
+        print(f"quote blocks regenerated in: {args.readme}")
     return 0
 
 

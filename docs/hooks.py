@@ -10,7 +10,12 @@ At every build (``mkdocs build``/``serve``) this
   measured live, as ``vpforms errata`` prints it);
 * generates the CLI reference from the argparse parser (``<!-- vpforms:cli-reference -->``: one
   section per subcommand with its ``--help``);
-* quotes benchmark result files verbatim (``<!-- vpforms:include benchmarks/results.md -->``).
+* quotes benchmark result files verbatim (``<!-- vpforms:include benchmarks/results.md -->``, or a
+  part of one: ``…/results_orders.md#section:pick-per-accuracy-target/table:2``, the selectors of
+  ``benchmarks/quote.py``);
+* checks the ``<!-- quote: … -->`` blocks of every page against their results files
+  (``benchmarks/quote.py``, which writes them): a stale block is a warning, so an error under
+  ``mkdocs build --strict``.
 
 The generated figures are added to the site as files ``gallery/NAME-K.png``.
 """
@@ -18,6 +23,7 @@ The generated figures are added to the site as files ``gallery/NAME-K.png``.
 from __future__ import annotations
 
 import base64
+import importlib.util
 import json
 import logging
 import os
@@ -64,6 +70,18 @@ _RUNNER = textwrap.dedent(
     sys.stderr.write("\\n@@VPFORMS-RESULT@@" + json.dumps({"figures": figs, "cpu": cpu}))
     """
 )
+
+
+
+def _quote_module():
+    """``benchmarks/quote.py`` (standard library only), loaded by path: the benchmarks are no package."""
+    spec = importlib.util.spec_from_file_location("vpforms_bench_quote", ROOT / "benchmarks" / "quote.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+quote = _quote_module()
 
 _TABLES = {
     "table36": "from vpforms.symbolic.tables import table36_markdown; print(table36_markdown(prove=True))",
@@ -180,10 +198,16 @@ def on_page_markdown(markdown, page, config, files, **kwargs):
         if what == "gallery":
             return _gallery(arg, page)
         if what == "include":
-            text = (ROOT / arg).read_text()
+            if "#" in arg:  # a part of the file, quote.py's selectors
+                text = quote.source(arg, ROOT)
+            else:
+                text = (ROOT / arg).read_text()
             return re.sub(r"^#", "###", text, flags=re.M)  # its headings below the page's
         raise RuntimeError(f"{page.file.src_uri}: unknown marker vpforms:{what}")
 
+    where = f"docs/{page.file.src_uri}"
+    for msg in quote.stale(markdown, ROOT, where):
+        log.warning(f"vpforms docs: {msg.splitlines()[0]}")
     return MARKER.sub(replace, markdown)
 
 
