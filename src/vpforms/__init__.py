@@ -37,7 +37,7 @@ from ._methods import (
     scheme,
 )
 from ._integrate import RK4, Solution, integrate  # noqa: E402
-from ._version import __version__  # noqa: E402
+from ._version import __version__  # noqa: F401  (vpforms.__version__)
 from . import diagnostics  # noqa: E402
 from ._spec import SpecError, field_from_spec, method_from_spec  # noqa: E402
 from . import native  # noqa: E402  (native.available(); backends: issue 9)
