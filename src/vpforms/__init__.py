@@ -37,11 +37,11 @@ from ._methods import (
     scheme,
 )
 from ._integrate import RK4, Solution, integrate  # noqa: E402
+from ._version import __version__  # noqa: F401  (vpforms.__version__)
 from . import diagnostics  # noqa: E402
 from ._spec import SpecError, field_from_spec, method_from_spec  # noqa: E402
 from . import native  # noqa: E402  (native.available(); backends: issue 9)
 
-__version__ = "0.1.0"
 
 __all__ = [
     "CLASSES",

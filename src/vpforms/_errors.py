@@ -18,6 +18,7 @@ __all__ = [
     "NotRealFieldError",
     "BudgetError",
     "InconsistentStepError",
+    "SpecError",
     "RESULTS",
     "RECOVERY",
     "raise_for_status",
@@ -26,6 +27,10 @@ __all__ = [
 
 class VPFormsError(Exception):
     """Base class of every error vpforms raises on purpose."""
+
+
+class SpecError(VPFormsError, ValueError):
+    """A method or field cannot be written as (or rebuilt from) a spec."""
 
 
 class TwistConditionError(VPFormsError):

@@ -18,6 +18,7 @@ from __future__ import annotations
 import warnings
 from collections.abc import Mapping
 
+import mpmath
 import numpy as np
 import sympy as sp
 
@@ -309,8 +310,6 @@ def _high_precision_max(div, symbols, pts, scales):
     """(max |div| / scale, |div| there, where) over the points in HP_DIGITS-digit arithmetic
     (mpmath), or None if the expression cannot be evaluated there (a function mpmath lacks,
     every point singular)."""
-    import mpmath
-
     try:
         f = sp.lambdify(tuple(symbols), div, "mpmath")
     except Exception:  # noqa: BLE001 - printing failed: no high-precision verdict

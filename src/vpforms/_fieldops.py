@@ -9,9 +9,11 @@ from typing import Any
 
 import jax
 import jax.numpy as jnp
+import jax.scipy.special as jsp
 import numpy as np
 import sympy as sp
 from sympy.core.function import AppliedUndef
+from sympy.printing.numpy import JaxPrinter, SciPyPrinter
 
 from . import _config  # noqa: F401  (float64)
 from ._budget import SIMPLIFY_SECONDS, TimeBudgetExceeded, bounded_expand, bounded_simplify, time_limited
@@ -144,8 +146,6 @@ def _is_pos_number(v: Any) -> bool:
 
 def _erfi(x):
     """erfi x = (2/√π) e^{x²} D(x), D the Dawson integral (jax.scipy has no erfi)."""
-    import jax.scipy.special as jsp
-
     return 2.0 / np.sqrt(np.pi) * jnp.exp(x * x) * jsp.dawsn(x)
 
 
@@ -155,7 +155,6 @@ def _special_functions() -> dict[str, tuple[Callable, Callable, Callable[[tuple]
     The name is what ``lambdify`` prints for the function (a ``modules`` dict entry becomes a
     user function printed by name), so these replace SymPy's fallbacks to ``math`` (``math.erf``
     cannot take a tracer) and fill in what the JAX printer does not know."""
-    import jax.scipy.special as jsp
     import scipy.special as ss
 
     def always(args: tuple) -> bool:
@@ -221,8 +220,6 @@ def _printable(f: sp.Basic, printer: Any) -> bool:
 def jax_unsupported(expr: Any) -> list[str]:
     """The functions in ``expr`` that have no JAX implementation here, as ``name`` (or
     ``name(args)`` when only some arguments are supported, e.g. besseli(2, x)); [] if none."""
-    from sympy.printing.numpy import JaxPrinter
-
     printer = JaxPrinter({"fully_qualified_modules": True})
     special = _special()
     bad: set[str] = set()
@@ -277,8 +274,6 @@ def _lambdify_with(symbols: Sequence[sp.Symbol], expr: Any, kind: str) -> Callab
     bound to their JAX (``kind="jax"``) or SciPy (``"scipy"``) implementation.  SymPy's printers
     have their own print methods for some of them (e.g. ``fresnels``, not supported by the JAX
     printer) that would ignore a ``modules`` dict, so the printer is subclassed."""
-    from sympy.printing.numpy import JaxPrinter, SciPyPrinter
-
     special = _special()
     base = JaxPrinter if kind == "jax" else SciPyPrinter
 

@@ -5,7 +5,7 @@
 
     method.step_with_status(x, h) -> (X, status)      # x of shape (3,), status a RESULTS code
 
-so any vpforms method (``vpforms.scheme``, ``vpforms.compose``), the :class:`RK4` baseline here, or a
+so any vpforms method (``vpforms.scheme``, ``vpforms.compose``), the :class:`RK4` baseline (``_methods/rk4.py``), or a
 user object with that method works.  Contract:
 
 * **Memory is bounded.** Particles are processed in chunks of ``chunk_size`` (all chunks padded to
@@ -24,8 +24,6 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
-from dataclasses import dataclass, field
 from functools import partial
 from typing import Any
 
@@ -35,9 +33,13 @@ import numpy as np
 from jax import lax
 
 from . import _config  # noqa: F401  (float64)
+from ._errors import RESULTS
+from ._methods.rk4 import RK4
+from ._progress import _Bar
 from ._recovery import bare_method, count_how, recover_points
-from ._guard import rk4_step
-from ._errors import RESULTS, raise_for_status
+from ._solution import Solution, describe, make_solution, saved_steps
+from .backends import select_backend  # the one dispatch hook (issue 9)
+from .backends.native.runner import integrate_native
 
 __all__ = ["integrate", "Solution", "RK4", "describe", "auto_chunk_size"]
 
@@ -45,233 +47,6 @@ __all__ = ["integrate", "Solution", "RK4", "describe", "auto_chunk_size"]
 _SEGMENT_BYTES = 64 * 2**20
 #: Largest chunk chosen automatically: big enough to amortise dispatch, small enough for cache.
 _MAX_AUTO_CHUNK = 2**13
-
-
-def describe(method: Any) -> str:
-    """A one-line human description of a method: its ``description``, else name, case and order."""
-    d = getattr(method, "description", None)
-    if isinstance(d, str) and d:
-        return d
-    name = getattr(method, "name", None)
-    if isinstance(name, str) and name:
-        parts = [name]
-        case = getattr(method, "case", None)
-        if case is not None:
-            parts.append(f"case {case}")
-        cls = getattr(method, "cls", None)
-        if isinstance(cls, str) and cls not in name:
-            parts.append(f"class {cls}")
-        order = getattr(method, "order", None)
-        if order is not None:
-            parts.append(f"order {order}")
-        return ", ".join(parts)
-    return repr(method)
-
-
-# --------------------------------------------------------------------------------------------
-# The baseline every comparison uses: classical explicit RK4 (not volume preserving).
-# --------------------------------------------------------------------------------------------
-class RK4:
-    """Classical fourth-order Runge–Kutta for x' = a(x): the usual baseline (not volume preserving).
-
-    ``field`` is any callable x (3,) -> a(x) (3,) in JAX, e.g. a :class:`vpforms.Field`.  It has the
-    method interface that :func:`integrate` and the diagnostics need: ``step``,
-    ``step_with_status`` (status is ``nonfinite`` when the result is not finite), ``order = 4``.
-    """
-
-    order = 4
-    symmetric = False
-
-    def __init__(self, field: Callable[[jax.Array], jax.Array]):
-        self.field = field
-        self.description = f"RK4 (classical, explicit) on {getattr(field, 'name', 'field')}"
-
-    def step(self, x: Any, h: Any) -> jax.Array:
-        a = self.field
-        x = jnp.asarray(x, dtype=jnp.result_type(float))
-        if x.ndim == 2:
-            return jax.vmap(lambda p: self.step(p, h))(x)
-        return rk4_step(a, x, h)
-
-    def step_with_status(self, x: Any, h: Any):
-        X = self.step(x, h)
-        bad = ~jnp.all(jnp.isfinite(X), axis=-1)
-        return X, jnp.where(bad, RESULTS.nonfinite, RESULTS.successful).astype(jnp.int32)
-
-    def spec(self) -> dict:
-        """The JSON-able spec that rebuilds this RK4 (:func:`vpforms.method_from_spec`)."""
-        from ._spec import method_spec
-
-        return method_spec(self)
-
-    def __repr__(self) -> str:
-        return f"RK4({getattr(self.field, 'name', self.field)!s})"
-
-
-# --------------------------------------------------------------------------------------------
-# Solution
-# --------------------------------------------------------------------------------------------
-@dataclass(frozen=True)
-class Solution:
-    """The result of :func:`integrate` (NumPy arrays on the host).
-
-    :meth:`summary` and :meth:`explain` give the failures by reason ("163 twist condition failed,
-    8 non-finite"), the first failed particles with their steps, and a hint computed from the
-    failed steps (:func:`vpforms.diagnostics.explain_failures`).
-
-    Attributes
-    ----------
-    ts:
-        Saved times, shape (S,): ``t0 + h * steps``.
-    steps:
-        Saved step indices, shape (S,): 0, k, 2k, …, and always ``n_steps`` last (k = save_every).
-    xs:
-        Saved states, shape (S, 3) for a single x0 of shape (3,), else (N, S, 3).
-    status:
-        Per-particle ``RESULTS`` code of the first failure (0 = every step succeeded); shape () or (N,).
-    failed_step:
-        Index n of the step t_n → t_{n+1} at which the particle failed, −1 if it never failed.  A
-        failed particle stays frozen at its state at step n.
-    method:
-        The method's description.
-    h, n_steps, save_every, t0:
-        The run's parameters.
-    stats:
-        ``wall_s`` (excluding nothing: compile included), ``n_chunks``, ``chunk_size``,
-        ``ns_per_particle_step``, ``recovered_how`` (recovered steps by alternative, issue #12).
-    recovered:
-        Per-particle number of steps that failed bare and were recovered (issue #12).
-    method_object:
-        The method that ran (not saved): :meth:`explain` uses it for its hint.
-
-    """
-
-    ts: np.ndarray
-    steps: np.ndarray
-    xs: np.ndarray
-    status: np.ndarray
-    failed_step: np.ndarray
-    method: str
-    h: float
-    n_steps: int
-    save_every: int | None
-    t0: float = 0.0
-    stats: dict = field(default_factory=dict)
-    #: per-particle number of steps that failed bare and were recovered (issue #12)
-    recovered: np.ndarray | None = None
-    #: the method object that ran (for :meth:`explain`'s hint); not saved, not compared
-    method_object: Any = field(default=None, repr=False, compare=False)
-
-    @property
-    def x_final(self) -> np.ndarray:
-        """The final state(s): shape (3,) or (N, 3)."""
-        return self.xs[..., -1, :]
-
-    @property
-    def n_failed(self) -> int:
-        return int(np.count_nonzero(self.status != RESULTS.successful))
-
-    @property
-    def ok(self) -> bool:
-        return self.n_failed == 0
-
-    def raise_for_status(self) -> None:
-        """Raise the named :class:`vpforms.VPFormsError` if any particle failed."""
-        raise_for_status(self.status, what=f"integrate({self.method})")
-
-    def explain(self, method: Any = None, hint: bool = True, cli: bool = False, max_shown: int = 5):
-        """Why particles failed: a :class:`vpforms.diagnostics.FailureReport` (issue #12).
-
-        The breakdown by reason with counts, the first failed particles and their steps, and —
-        with the method (default: the one :func:`integrate` ran, :attr:`method_object`) — a hint
-        computed from the failed steps: the states where they failed are the frozen states, so
-        the steps are retaken there at smaller h and :func:`vpforms.diagnostics.twist_map` says
-        which class's twist condition holds there.
-        """
-        from .diagnostics.failures import explain_failures
-
-        m = self.method_object if method is None else method
-        cache = self.__dict__.setdefault("_explained", {})  # summary() then explain(): computed once
-        key = (id(m), bool(hint), bool(cli), int(max_shown))
-        if key not in cache or cache[key][0] is not m:
-            cache[key] = (m, explain_failures(self.status, self.failed_step, points=self.x_final, method=m,
-                                              h=self.h, hint=hint, cli=cli, max_shown=max_shown))
-        return cache[key][1]
-
-    def summary(self, hint: bool = True) -> dict[str, Any]:
-        """A flat dictionary for printing: counts, times, failures by reason (and a hint, see
-        :meth:`explain`; ``hint=False`` skips its computation)."""
-        st = np.atleast_1d(self.status)
-        fails = {
-            RESULTS.messages[int(c)]: int(np.count_nonzero(st == c))
-            for c in np.unique(st)
-            if c != RESULTS.successful
-        }
-        out = {
-            "method": self.method,
-            "particles": int(st.size),
-            "h": self.h,
-            "steps": self.n_steps,
-            "t_final": float(self.ts[-1]),
-            "saved states": int(self.ts.size),
-            "failed particles": int(np.count_nonzero(st != RESULTS.successful)),
-        }
-        if fails:
-            rep = self.explain(hint=hint)
-            out["failures"] = fails
-            out["failure breakdown"] = rep.breakdown
-            out["first failed"] = list(rep.first)
-            if rep.hint:
-                out["hint"] = rep.hint
-        if self.recovered is not None:
-            out["recovered steps"] = int(np.sum(self.recovered))
-        return {**out, **self.stats}
-
-    def save(self, path: str) -> str:
-        """Write an ``.npz`` with ts, steps, xs, status, failed_step, recovered, recovered_how and the
-        run parameters; returns the name of the file written (NumPy appends ``.npz`` to a name
-        without it: ``run.txt`` → ``run.txt.npz``).
-
-        ``recovered`` is :attr:`recovered` (steps per particle that failed bare and were recovered;
-        absent when the run did not count them) and ``recovered_how`` a JSON object (a 0-d string
-        array) of the recovered steps by alternative, ``stats["recovered_how"]`` (``{}`` = none).
-        """
-        import json
-        import os
-
-        if isinstance(path, (str, os.PathLike)):
-            path = os.fspath(path)
-            if not path.endswith(".npz"):
-                path += ".npz"
-        rec = {} if self.recovered is None else {"recovered": np.asarray(self.recovered)}
-        np.savez_compressed(
-            path,
-            **rec,
-            recovered_how=np.array(json.dumps(self.stats.get("recovered_how", {}), ensure_ascii=False)),
-            ts=self.ts,
-            steps=self.steps,
-            xs=self.xs,
-            status=self.status,
-            failed_step=self.failed_step,
-            method=np.array(self.method),
-            h=np.array(self.h),
-            n_steps=np.array(self.n_steps),
-            save_every=np.array(-1 if self.save_every is None else self.save_every),
-            t0=np.array(self.t0),
-        )
-        return path
-
-    def to_xarray(self, method: Any = None):
-        """This solution as an ``xarray.Dataset`` (:mod:`vpforms.io`; ``method`` adds its spec)."""
-        from .io import solution_to_xarray
-
-        return solution_to_xarray(self, method)
-
-    def to_netcdf(self, path: str, method: Any = None) -> None:
-        """Write :meth:`to_xarray` to a netCDF file (:mod:`vpforms.io`)."""
-        from .io import solution_to_netcdf
-
-        solution_to_netcdf(self, path, method)
 
 
 # --------------------------------------------------------------------------------------------
@@ -414,68 +189,6 @@ class _StepFn:
         return isinstance(other, _StepFn) and other.method is self.method
 
 
-def _is_terminal() -> bool:
-    """Whether rich would animate a bar here (not in pipes, logs or captured test output)."""
-    from rich.console import Console
-
-    return Console(stderr=True).is_terminal
-
-
-class _Bar:
-    """A rich progress bar that appears only for runs expected to take more than ~1 s."""
-
-    def __init__(self, mode: bool | str, total: int, label: str):
-        self.mode, self.total, self.label = mode, total, label
-        self.done = 0
-        self.t_start = time.perf_counter()
-        self.progress = None
-        self.task = None
-
-    def _start(self):
-        from rich.progress import (
-            BarColumn,
-            MofNCompleteColumn,
-            Progress,
-            TextColumn,
-            TimeElapsedColumn,
-            TimeRemainingColumn,
-        )
-
-        from rich.console import Console
-
-        self.progress = Progress(
-            TextColumn("[bold]{task.description}"),
-            BarColumn(),
-            MofNCompleteColumn(),
-            TextColumn("particle-steps"),
-            TimeElapsedColumn(),
-            TimeRemainingColumn(),
-            transient=True,
-            console=Console(stderr=True),
-        )
-        self.progress.start()
-        self.task = self.progress.add_task(self.label, total=self.total, completed=self.done)
-
-    def update(self, k: int):
-        self.done += k
-        if self.mode is False:
-            return
-        if self.progress is None:
-            elapsed = time.perf_counter() - self.t_start
-            frac = self.done / max(self.total, 1)
-            expected = elapsed / max(frac, 1e-12)
-            if self.mode is True or (
-                elapsed > 0.25 and expected > 1.0 and frac < 0.9 and _is_terminal()
-            ):
-                self._start()
-        if self.progress is not None:
-            self.progress.update(self.task, completed=self.done)
-
-    def close(self):
-        if self.progress is not None:
-            self.progress.stop()
-
-
 def _check_run(method: Any, x0: Any, h: Any, n_steps: Any, t0: Any = 0.0) -> tuple[np.ndarray, bool, float, int]:
     """Validate the arguments every run shares; return (points (N, 3), single, h, n_steps).
 
@@ -545,12 +258,8 @@ def integrate(
     check = getattr(method, "check_domain", None)
     if check is not None and pts.shape[0]:
         check(pts)  # issue #23: potentials that do not hold at x0 are refused before any step
-    from .backends import select_backend  # the one dispatch hook (issue 9)
-
     backend, backend_reason = select_backend(method, backend)
     if backend == "native":
-        from .backends.native.runner import integrate_native
-
         if chunk_size is not None and int(chunk_size) < 1:  # the same check as the JAX path
             raise ValueError(f"chunk_size must be ≥ 1, got {chunk_size}")
         return integrate_native(method, pts, single, h, n_steps, save_every, t0, progress, backend_reason)
@@ -625,29 +334,4 @@ def integrate(
     return make_solution(method, single, h, n_steps, save_every, t0, steps, xs, status, failed, recovered,
                          stats, recovered_how)
 
-
-def saved_steps(n_steps: int, save_every: int | None) -> np.ndarray:
-    """The step indices a run keeps: 0, k, 2k, …, n_steps (the last block may be partial), or only
-    0 and n_steps when ``save_every`` is None."""
-    if save_every is None:
-        return np.array([0, n_steps]) if n_steps else np.array([0])
-    k = int(save_every)
-    if k < 1:
-        raise ValueError(f"save_every must be ≥ 1, got {save_every}")
-    return np.minimum(np.arange(-(-n_steps // k) + 1) * k, n_steps)
-
-
-def make_solution(method, single, h, n_steps, save_every, t0, steps, xs, status, failed, recovered,
-                  stats: dict, how: dict) -> Solution:
-    """The :class:`Solution` of a finished run, the same from every backend: ``stats`` (wall time,
-    chunking, backend) gains the throughput and the recovery breakdown; a single point is unbatched."""
-    N = xs.shape[0]
-    stats = {**stats, "ns_per_particle_step": (1e9 * stats["wall_s"] / (N * n_steps)) if N * n_steps
-             else float("nan"), **({"recovered_how": how} if how else {})}
-    ts = t0 + h * steps.astype(np.float64)
-    if single:
-        return Solution(ts, steps, xs[0], status[0], failed[0], describe(method), h, n_steps, save_every, t0, stats,
-                        int(recovered[0]), method)
-    return Solution(ts, steps, xs, status, failed, describe(method), h, n_steps, save_every, t0, stats, recovered,
-                    method)
 

@@ -21,12 +21,13 @@ import tokenize
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+import mpmath
 import sympy as sp
 from sympy.parsing.sympy_parser import convert_xor, parse_expr, standard_transformations
 
 from ._budget import MAX_DIGITS, MAX_EXPONENT, MAX_NODES, tree_size
 from ._errors import VPFormsError
-from .fields import SYMBOLS
+from .fields import SYMBOLS, Field
 
 __all__ = ["FieldSyntaxError", "parse_expression", "parse_number", "parse_components", "field_from_text"]
 
@@ -136,8 +137,6 @@ def _check_tokens(text: str, names: set[str], what: str) -> None:
 def _log10_abs(value: sp.Expr) -> float | None:
     """log10 |value| of a constant, by mpmath (no overflow, whatever the size; the unevaluated
     tree is evaluated numerically, never exactly); None for 0 or what is not a number."""
-    import mpmath
-
     parts = []
     for c in sp.N(value, 15).as_real_imag():
         if c.is_Float:
@@ -291,8 +290,6 @@ def field_from_text(components: str | Sequence[str], params: Mapping[str, Any] |
     Unused or undeclared parameters, a time dependence, and a nonzero divergence (checked by
     :meth:`Field.from_sympy`) are refused with one-line errors.
     """
-    from .fields import Field
-
     params = dict(params or {})
     values = {}
     for k, v in params.items():

@@ -16,6 +16,8 @@ import itertools
 from collections.abc import Callable, Iterable, Iterator
 from typing import Any
 
+import numpy as np
+
 __all__ = ["Perm", "as_perm", "FLIP"]
 
 
@@ -178,8 +180,6 @@ def _validate(images: Any) -> tuple[int, int, int]:
 def _is_integral(v: Any) -> bool:
     # numpy integers are accepted; floats, bools and strings are not.
     try:
-        import numpy as np
-
         return isinstance(v, np.integer)
     except ImportError:  # pragma: no cover
         return False

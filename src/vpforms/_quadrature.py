@@ -33,6 +33,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from functools import lru_cache
+from math import exp, lgamma, log
 from typing import Any
 
 import jax
@@ -132,8 +133,6 @@ def line_integral_expr(f: Callable[[Any], Any], lower: Any, upper: Any, n: int =
 
 def gl_error_bound(n: int, max_deriv_2n: float, length: float = 1.0) -> float:
     """The classical bound |E_n| ≤ L^{2n+1} (n!)⁴ / ((2n+1) ((2n)!)³) · max |f^{(2n)}| on [a, a+L]."""
-    from math import exp, lgamma, log
-
     if length == 0 or max_deriv_2n == 0:
         return 0.0
     logc = (2 * n + 1) * log(abs(length)) + 4 * lgamma(n + 1) - log(2 * n + 1) - 3 * lgamma(2 * n + 1)

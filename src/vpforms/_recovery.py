@@ -21,6 +21,10 @@ import jax
 import numpy as np
 
 from ._errors import RECOVERY, RESULTS
+from ._methods._base import Method
+from ._methods.compose import AdjointComposition, Composition, SymmetricPair
+from ._methods.recover import Recovering
+from ._methods.rk4 import RK4
 
 __all__ = ["bare_method", "recover_points", "count_how", "bare_first"]
 
@@ -78,9 +82,6 @@ def _host_step(method: Any, x: np.ndarray, h: float, bare_failed: bool = False):
     their ``_batched_step``); ``how`` is then the largest code of the stages.  ``bare_failed``:
     the caller already knows the bare step failed at every point (skip it).
     """
-    from ._methods.compose import AdjointComposition, Composition, SymmetricPair
-    from ._methods.recover import Recovering
-
     if isinstance(method, Recovering):
         if bare_failed:
             X, st = x.copy(), np.full(x.shape[0], RESULTS.not_converged, np.int32)
@@ -129,9 +130,6 @@ def _host_step(method: Any, x: np.ndarray, h: float, bare_failed: bool = False):
 def _per_batch(method: Any, name: str):
     """``method.<name>`` on a batch (B, 3): vpforms' own methods take batches; a user method's
     contract (as in :func:`vpforms.integrate`) is one point (3,), so it is vmapped."""
-    from ._integrate import RK4
-    from ._methods._base import Method
-
     fn = getattr(method, name)
     return fn if isinstance(method, (Method, RK4)) else jax.vmap(fn, in_axes=(0, None))
 

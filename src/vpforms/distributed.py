@@ -44,8 +44,12 @@ from typing import Any
 
 import numpy as np
 
+from . import _integrate
 from . import io as _io
+from ._integrate import _check_run
 from ._integrate import saved_steps as _global_steps
+from ._spec import method_from_spec
+from .backends import select_backend
 
 __all__ = ["run", "run_chunk"]
 
@@ -55,8 +59,6 @@ _IN_PROCESS: dict[str, Any] = {}  # spec text → the caller's own method (in-pr
 
 @functools.lru_cache(maxsize=8)
 def _rebuilt(spec_text: str):
-    from ._spec import method_from_spec
-
     return method_from_spec(json.loads(spec_text))
 
 
@@ -96,8 +98,6 @@ def run_chunk(spec_text: str, store: str, c: int, lo: int, x0: np.ndarray, h: fl
     ``from_step`` (0 = from the start), ``restarted`` (an earlier attempt had begun this chunk),
     ``discarded`` (why a checkpoint was not continued), ``backend`` (the one that ran).
     """
-    from ._integrate import integrate
-
     if _io.is_done(store, c):  # a retry of a task whose earlier attempt finished (the client verified)
         return {"chunk": c, "skipped": True, "wall_s": 0.0}
     t_start = time.perf_counter()
@@ -125,7 +125,7 @@ def run_chunk(spec_text: str, store: str, c: int, lo: int, x0: np.ndarray, h: fl
     first = None if n_done else x0[:, None, :]  # x0 goes out with the first segment (one write)
     while n_done < n_steps:
         m = min(segment, n_steps - n_done)
-        sol = integrate(method, x, h, m, save_every=save_every, t0=t0 + h * n_done,
+        sol = _integrate.integrate(method, x, h, m, save_every=save_every, t0=t0 + h * n_done,
                         chunk_size=n, progress=False, backend=backend)
         ran = sol.stats["backend"]
         alive = status == 0
@@ -192,8 +192,6 @@ def _choose_backend(method: Any, backend: str | None, store: str, resume: bool) 
     """(backend, why) of a store run: ``backend`` as :func:`vpforms.integrate` chooses it, except
     that ``"auto"`` continues a resumed store with the backend that wrote it (their last bits
     differ: one store, one backend)."""
-    from .backends import select_backend
-
     backend = "auto" if backend is None else backend
     old = _io.store_attrs(store) if resume else None
     if backend == "auto" and old is not None and old.get("backend") in ("jax", "native"):
@@ -244,8 +242,6 @@ def run(method: Any, x0: Any, h: float, n_steps: int, *, store: str, save_every:
     failed verification}) and ``chunks_report`` (one line: chunks kept, run, redone and why).
     See the module docstring.
     """
-    from ._integrate import _check_run
-
     pts, _single, h, n_steps = _check_run(method, x0, h, n_steps, t0)
     if save_every is not None and int(save_every) < 1:
         raise ValueError(f"save_every must be ≥ 1, got {save_every}")

@@ -26,6 +26,8 @@ Potentials are computed on first access of :attr:`Field.se_potentials` /
 
 from __future__ import annotations
 
+import functools
+import json
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
@@ -37,6 +39,7 @@ from sympy.core.function import AppliedUndef
 
 from . import _config  # noqa: F401  (float64)
 from ._budget import check_size
+from ._errors import NotRealFieldError, SpecError
 from ._field_input import (
     DIV_POINTS,
     _detect_linear,
@@ -240,8 +243,6 @@ class Field:
         v = np.asarray(self(jnp.asarray(pts))).reshape(-1, 3)
         bad = np.flatnonzero(~np.all(np.isfinite(v), axis=1))
         if bad.size:
-            from ._errors import NotRealFieldError
-
             i = int(bad[0])
             comp = int(np.flatnonzero(~np.isfinite(v[i]))[0]) + 1
             raise NotRealFieldError(f"field {self.name!r}: component a{comp} is not finite at "
@@ -681,8 +682,6 @@ class Field:
 
     def spec(self) -> dict:
         """The JSON-able spec that rebuilds this field (:func:`vpforms.field_from_spec`)."""
-        from ._spec import field_spec
-
         return field_spec(self)
 
     def __repr__(self) -> str:
@@ -692,3 +691,64 @@ class Field:
 
 def _is_zero(c: Any) -> bool:
     return not callable(c) and sp.sympify(c) == 0
+
+
+# ---------------------------------------------------------------------------------------------
+# specs (issue #10): a field as JSON and back; moved here from _spec.py (issue #19)
+# ---------------------------------------------------------------------------------------------
+def field_spec(field: Any) -> dict:
+    """The JSON-able spec of a :class:`vpforms.Field` (symbolic or linear)."""
+    if not isinstance(field, Field):
+        raise SpecError(f"cannot ship {type(field).__name__} {field!r}: only a vpforms.Field has a spec")
+    if field.linear_matrix is not None:
+        return {"kind": "linear", "A": np.asarray(field.linear_matrix, float).tolist(),
+                "name": field.name, "box": [list(b) for b in field.box]}
+    if field.exprs is None:
+        raise SpecError(
+            f"field {field.name!r} was given only as a JAX callable: it cannot be shipped to another "
+            "process or written to a file; build it with Field.from_sympy (or a vpforms.problems problem)"
+        )
+    pots = {k: [sp.srepr(p) for p in v[1]] for k, v in field._potentials.items()
+            if v[2] == "user-supplied" and v[1] is not None}
+    return {
+        "kind": "sympy",
+        "exprs": [sp.srepr(e) for e in field.exprs],
+        "symbols": [sp.srepr(s) for s in field.symbols],
+        "params": {str(k): float(v) for k, v in field.params.items()},
+        "name": field.name,
+        "box": [list(b) for b in field.box],
+        "origin": list(field.origin),
+        "quadrature_n": field.quadrature_n,
+        "closed_form": field.closed_form,
+        "tol": field.tol,
+        **({"potentials": pots} if pots else {}),
+    }
+
+
+@functools.lru_cache(maxsize=64)
+def _field_from_json(text: str):
+    spec = json.loads(text)
+    kind = spec.get("kind")
+    box = tuple(tuple(b) for b in spec["box"])
+    if kind == "linear":
+        return Field.linear(np.asarray(spec["A"], float), name=spec["name"], box=box)
+    if kind != "sympy":
+        raise SpecError(f"unknown field spec kind {kind!r}")
+    exprs = [sp.sympify(e) for e in spec["exprs"]]
+    symbols = [sp.sympify(s) for s in spec["symbols"]]
+    pots = {k: tuple(sp.sympify(p) for p in v) for k, v in spec.get("potentials", {}).items()} or None
+    f = Field.from_sympy(exprs, symbols, name=spec["name"], potentials=pots, box=box,
+                         origin=tuple(spec["origin"]), quadrature_n=spec["quadrature_n"],
+                         closed_form=spec["closed_form"], tol=spec["tol"])
+    f.params = dict(spec.get("params", {}))
+    return f
+
+
+def field_from_spec(spec: dict) -> Any:
+    """Rebuild a :class:`vpforms.Field` from :func:`field_spec` (cached per process)."""
+    if not isinstance(spec, dict):
+        raise SpecError(f"a field spec is a dict, got {type(spec).__name__}")
+    try:
+        return _field_from_json(json.dumps(spec, sort_keys=True))
+    except (KeyError, TypeError) as err:
+        raise SpecError(f"malformed field spec: {err!r}") from None

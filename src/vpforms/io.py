@@ -33,8 +33,11 @@ without warnings, and never lists the ``.vpforms`` folder).
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import json
 import os
+import shutil
+import warnings
 from typing import Any
 
 import numpy as np
@@ -57,7 +60,9 @@ __all__ = [
     "write_chunk",
 ]
 
-from ._errors import VPFormsError
+from ._errors import RESULTS, VPFormsError
+from ._solution import saved_steps
+from ._version import __version__
 
 
 class StoreMismatchError(VPFormsError, ValueError):
@@ -71,8 +76,6 @@ class StoreVerificationError(VPFormsError, RuntimeError):
 
 
 def _version() -> str:
-    from . import __version__
-
     return __version__
 
 
@@ -145,8 +148,6 @@ def _meta_dir(store: str, *parts: str) -> str:
 def _quiet():
     """Without zarr's notes about the bookkeeping folder .vpforms (not a Zarr node) and about
     consolidated metadata being a zarr-python extension of format 3."""
-    import warnings
-
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", message=".*not recognized as a component of a Zarr")
         warnings.filterwarnings("ignore", message=".*[Cc]onsolidated metadata is currently not part")
@@ -193,8 +194,6 @@ def _shown(key: str, value: Any, attrs: dict) -> str:
     if value is None:
         return "none"
     if key == "spec":
-        import hashlib
-
         return f"{attrs.get('method', '?')} (spec sha256 {hashlib.sha256(str(value).encode()).hexdigest()[:12]})"
     if key == "x0_sha256":
         return f"sha256 {str(value)[:12]}"
@@ -223,8 +222,6 @@ def create_store(store: str, *, n_particles: int, steps: np.ndarray, ts: np.ndar
             )
         return True
     if os.path.exists(path):
-        import shutil
-
         shutil.rmtree(path)
     g = _group(path, "w")
     N, S = int(n_particles), int(steps.size)
@@ -297,8 +294,6 @@ def remove_partial_files(store: str) -> int:
 
 def digest(a: np.ndarray) -> dict:
     """Shape, dtype and SHA-256 of an array's bytes: what a done marker records of each region."""
-    import hashlib
-
     a = np.ascontiguousarray(a)
     return {"shape": list(a.shape), "dtype": a.dtype.str, "sha256": hashlib.sha256(a.tobytes()).hexdigest()}
 
@@ -361,8 +356,6 @@ def unexplained_failures(x: np.ndarray, status: np.ndarray, failed: np.ndarray, 
     """Why particles lo… do not tell their own story, or None: every status a ``RESULTS`` code (−1
     = never written), ``failed_step`` −1 exactly for the particles that succeeded, no negative
     recovered count, and no non-finite state unless the particle's status says why."""
-    from ._errors import RESULTS
-
     def first(mask, what):
         i = int(np.flatnonzero(mask)[0])
         return f"particle {lo + i}: {what(i)} ({int(mask.sum())} particle(s))"
@@ -420,8 +413,6 @@ def verify_store(store: str) -> dict:
     those of the run's attributes.  Returns a report: ``bad`` ({chunk: why}; empty = verified),
     ``chunks``, ``particles``, ``failed`` (particles with a failure status), ``recovered_steps``,
     ``recovered_how`` (summed over the markers), ``backend``."""
-    from ._integrate import saved_steps
-
     path = os.fspath(store)
     attrs = store_attrs(path)
     if attrs is None:

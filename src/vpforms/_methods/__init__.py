@@ -9,6 +9,7 @@ higher order by composition (compose). Every recipe hands its potentials to the 
 from ._base import Adjoint, GeneratingMethod, Method, RecipeError, Relabelled
 from .compose import (ADJOINT_COMPOSITIONS, COMPOSITIONS, AdjointComposition, Composition,
                       SymmetricPair, compose, triple_jump)
+from .rk4 import RK4
 from .correction import QuispelCorrection, QuispelS1, QuispelS2
 from .dl_dl import DLDL
 from .s1 import S1
@@ -41,4 +42,5 @@ __all__ = [
     "Composition",
     "SymmetricPair",
     "triple_jump",
+    "RK4",
 ]

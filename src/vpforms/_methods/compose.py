@@ -24,7 +24,7 @@ import jax.numpy as jnp
 import numpy as np
 from jax import lax
 
-from .._spec import records_spec
+from .._spec_record import records_spec
 from ._base import Method, merge_status
 from .recover import Recovering, SubstepLadder
 

@@ -42,7 +42,8 @@ import jax
 import jax.numpy as jnp
 from jax import lax
 
-from .._errors import RECOVERY, RESULTS
+from .._case import CLASSES, cases
+from .._errors import RECOVERY, RESULTS, VPFormsError
 from .._guard import alternative_status
 from ._base import Method, merge_status
 
@@ -252,8 +253,6 @@ def recovering(field: Any, case, bare: Method, build, substeps: int = 6, classes
     """``Recovering(bare, …)`` with the alternatives of the module docstring; ``build(case_or_cls)``
     makes a bare method (None where the recipe does not apply to the field, the reason then in
     ``refused``)."""
-    from .._case import CLASSES, cases
-
     alts = list(first)
     for c in cases():
         if c.cls == case.cls and c != case:
@@ -273,8 +272,6 @@ def recovering(field: Any, case, bare: Method, build, substeps: int = 6, classes
 
 def recovering_scheme(scheme, field, case, options, substeps, classes):
     """``scheme(field, case, recover=True, **options)``: the bare scheme wrapped in recovery."""
-    from .._errors import VPFormsError
-
     bare = scheme(field, case, recover=False, **options)
     newton = {"newton": options["newton"]} if "newton" in options else {}
 

@@ -17,12 +17,13 @@ from typing import Any
 
 from .._case import CLASSES, Case
 from .._perm import Perm
-from .._spec import records_spec
+from .._spec_record import records_spec
 from .._fieldops import PotentialError
 from ._base import Method, Relabelled, RecipeError
 from ._relabel import relabelled_field
 from ._representatives import REPRESENTATIVES
 from .correction import QuispelCorrection
+from .recover import recovering_scheme
 from .dl_dl import DLDL
 from .s1 import S1
 from .s2 import S2
@@ -118,8 +119,6 @@ def scheme(field: Any, case: Case | str | tuple = "SE+SE", **options) -> Method:
     substeps = options.pop("recover_substeps", 6)
     classes = options.pop("recover_classes", True)
     if recover:  # issue #12: alternatives where the bare step fails (see _methods/recover.py)
-        from .recover import recovering_scheme
-
         return recovering_scheme(scheme, field, case, options, substeps, classes)
     if isinstance(case, str):
         c = REPRESENTATIVES[class_name(case)]

@@ -10,6 +10,8 @@ from __future__ import annotations
 from typing import Any
 
 from .._errors import VPFormsError
+from .native import available
+from .native.codegen import unsupported_reason
 
 __all__ = ["BACKENDS", "NativeUnavailableError", "select_backend"]
 
@@ -25,9 +27,6 @@ def select_backend(method: Any, backend: str = "auto") -> tuple[str, str]:
         raise ValueError(f"backend must be one of {', '.join(BACKENDS)}; got {backend!r}")
     if backend == "jax":
         return "jax", "requested"
-    from .native import available
-    from .native.codegen import unsupported_reason
-
     ok, why = available()
     reason = None if ok else why
     if reason is None:

@@ -19,7 +19,12 @@ import logging
 import os
 import sys
 import warnings
+from importlib.metadata import PackageNotFoundError
+from importlib.metadata import version as dist_version
 
+from rich.console import Console
+
+from .._version import __version__
 from . import demo, fieldlines, studies, tables, trace
 from ._common import CLIError, _Parser
 
@@ -49,21 +54,14 @@ def build_parser() -> argparse.ArgumentParser:
 
 def version() -> str:
     """The installed distribution's version (importlib.metadata), else the package's own."""
-    from importlib.metadata import PackageNotFoundError
-    from importlib.metadata import version as dist_version
-
     try:
         return dist_version("vpforms")
     except PackageNotFoundError:  # a source tree that is not installed
-        from .. import __version__
-
         return __version__
 
 
 def main(argv: list[str] | None = None) -> int:
     """Run the CLI; returns the exit code (0 ok, 1 failed computation, 2 bad arguments)."""
-    from rich.console import Console
-
     wide = not sys.stdout.isatty() and not os.environ.get("COLUMNS")
     console = Console(width=250) if wide else Console()  # tables don't wrap in pipes
     debug = bool(os.environ.get("VPFORMS_DEBUG"))

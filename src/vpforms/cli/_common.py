@@ -4,13 +4,21 @@ problem and method construction (cached), and the common argument groups."""
 from __future__ import annotations
 
 import argparse
+import inspect
 import math
 import os
 from typing import Any
 
+from rich.table import Table
 
-class CLIError(Exception):
-    """A bad argument or an unavailable feature: reported as one line, exit code 2."""
+from .._case import Case
+from .._integrate import RK4
+from .._methods import compose, scheme
+from .._parse import FieldSyntaxError, parse_number  # never sympify (eval) user text
+from .._perm import Perm
+from . import _fields
+from ._errors import CLIError
+from ._fields import add_field_args
 
 
 class _Parser(argparse.ArgumentParser):
@@ -60,8 +68,6 @@ def refuse_unless(args, dests, applies: bool, why: str) -> None:
 # Parsing helpers
 # --------------------------------------------------------------------------------------------
 def _parse_perm(text: str):
-    from .._perm import Perm
-
     digits = [c for c in text if c.isdigit()]
     if len(digits) != 3 or any(not c.isdigit() and c not in "(), " for c in text):
         raise CLIError(f"{text!r} is not a permutation of (1, 2, 3); write e.g. 321, 3,2,1 or (3,2,1)")
@@ -81,8 +87,6 @@ def _parse_value(text: str):
             return conv(text)
         except ValueError:
             pass
-    from .._parse import FieldSyntaxError, parse_number  # never sympify (eval) user text
-
     try:
         return parse_number(text, what="parameter value")
     except FieldSyntaxError as exc:
@@ -154,8 +158,6 @@ def _problem(args):
         from .. import problems
     except ImportError as exc:  # pragma: no cover - only while issue #4 is missing
         raise CLIError(f"the problem library (vpforms.problems) is not available: {exc}") from None
-    from . import _fields
-
     # the points of --x0 are the initial conditions: --particles and --seed would do nothing
     refuse_unless(args, ("particles", "seed"), not getattr(args, "x0", None),
                   "with --x0 (its points are the initial conditions)")
@@ -177,8 +179,6 @@ def _problem(args):
 
 def _bad_params_message(problems, name, params, exc) -> str:
     """Name the parameters the problem does not take and list the ones it does."""
-    import inspect
-
     make = problems._MAKERS[str(name).lower().replace("-", "_")][0]
     kinds = (inspect.Parameter.POSITIONAL_OR_KEYWORD, inspect.Parameter.KEYWORD_ONLY)
     valid = [p.name for p in inspect.signature(make).parameters.values()
@@ -212,8 +212,6 @@ def _method(field, cls: str = "SE+SE", case=None, order: int = 1, fast: bool = F
 
 
 def _make_method(field, cls, case, order, fast, theta, recover=True, composition=None):
-    from .._integrate import RK4
-
     if str(cls).strip().lower() == "rk4":
         bad = [name for name, on in (("--case", case is not None), ("--order", order != 1), ("--fast", fast),
                                      ("--theta", theta is not None), ("--no-recover", not recover),
@@ -222,10 +220,6 @@ def _make_method(field, cls, case, order, fast, theta, recover=True, composition
             raise CLIError(f"rk4 is the explicit baseline: {', '.join(bad)} "
                            f"{'does' if len(bad) == 1 else 'do'} not apply")
         return RK4(field)
-    try:
-        from .._methods import compose, scheme
-    except ImportError as exc:  # pragma: no cover - only while issue #5 is missing
-        raise CLIError(f"the methods (vpforms.scheme) are not available yet: {exc}") from None
     opts = {}
     if fast:
         opts["fast"] = True
@@ -252,8 +246,6 @@ def _make_method(field, cls, case, order, fast, theta, recover=True, composition
 def _method_from_args(args, field):
     case = None
     if getattr(args, "case", None):
-        from .._case import Case
-
         case = Case(_parse_perm(args.case[0]), _parse_perm(args.case[1]))
     return _method(field, args.method, case, args.order, args.fast, args.theta,
                    not getattr(args, "no_recover", False), getattr(args, "composition", None))
@@ -276,8 +268,6 @@ def _spec_label(name: str, order: int) -> str:
 
 
 def _summary_table(title: str, rows: dict[str, Any]):
-    from rich.table import Table
-
     t = Table(title=title, show_header=False)
     t.add_column("", style="bold")
     t.add_column("", overflow="fold")
@@ -304,8 +294,6 @@ def _add_problem_args(p, default_problem="abc"):
                    help="problem parameter, repeatable or comma-separated, e.g. --param C=0 or "
                         "--param B=sqrt(2/3)")
     p.add_argument("--seed", type=int, default=0, help="seed of the initial conditions (default 0)")
-    from ._fields import add_field_args
-
     add_field_args(p, default_problem)  # --field, --field-file, --box, --x0 (issue #11)
 
 

@@ -3,8 +3,15 @@
 
 from __future__ import annotations
 
+import json
 import os
 
+import numpy as np
+
+from .._spec import SpecError
+from ..backends import NativeUnavailableError
+from ..distributed import run
+from ..io import StoreMismatchError, StoreVerificationError, describe_bad, verify_store
 from ._common import CLIError, _positive_int, _summary_table
 
 
@@ -29,15 +36,6 @@ def _how(counts: dict) -> str:
 
 
 def cmd_run_store(args, prob, method, x0, console) -> int:
-    import json
-
-    import numpy as np
-
-    from .._spec import SpecError
-    from ..backends import NativeUnavailableError
-    from ..distributed import run
-    from ..io import StoreMismatchError
-
     try:
         ds = run(method, x0, args.h, args.steps, store=args.out, save_every=args.save_every,
                  chunk_particles=args.chunk_particles, client=args.scheduler, workers=args.workers,
@@ -66,8 +64,6 @@ def cmd_run_store(args, prob, method, x0, console) -> int:
 
 
 def _cmd_verify(args, console) -> int:
-    from ..io import StoreVerificationError, describe_bad, verify_store
-
     if not os.path.isdir(args.store):
         raise CLIError(f"no store at {args.store!r}")
     check = verify_store(args.store)  # StoreVerificationError (no store, an old format): exit 1

@@ -6,12 +6,15 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from rich.markup import escape
+
+from .._integrate import integrate
+from .._recovery import bare_method
+from ..diagnostics import explain_failures
 
 
 def print_report(console, report) -> None:
     """Print a FailureReport: the counts in yellow, the first failures, the hint."""
-    from rich.markup import escape
-
     lines = report.lines()
     console.print(f"[yellow]{escape(lines[0])}", soft_wrap=True)
     for line in lines[1:]:
@@ -27,8 +30,6 @@ def explain_solution(console, sol, method: Any) -> None:
 def recovered_text(sol, method: Any) -> str:
     """The summary's "recovered steps": how many steps failed bare and were recovered, in how many
     particles, and by which alternative (``Solution.recovered`` and ``stats["recovered_how"]``)."""
-    from .._recovery import bare_method
-
     if bare_method(method) is method:  # RK4, --no-recover: nothing is recovered
         return "off (bare method: a failed step freezes its particle)"
     rec = np.atleast_1d(np.asarray(sol.recovered if sol.recovered is not None else 0))
@@ -48,9 +49,6 @@ def explain_rerun(console, status, method: Any, x0, h: float, n_steps: int, what
     particle's trajectory does not depend on the others), which gives the step at which each
     failed and the state there for the hint.  Particles are reported by their original index.
     """
-    from .._integrate import integrate
-    from ..diagnostics import explain_failures
-
     st = np.atleast_1d(np.asarray(status))
     bad = np.flatnonzero(st != 0)
     if not bad.size:

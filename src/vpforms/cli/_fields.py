@@ -20,10 +20,13 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
+import tomllib
 
 import numpy as np
 
-from ._common import CLIError
+from .._errors import VPFormsError
+from .._parse import FieldSyntaxError, field_from_text, parse_number
+from ._errors import CLIError
 
 FIELD_FILE_EXAMPLE = __doc__.split("::")[1].split("Expressions")[0]
 
@@ -62,8 +65,6 @@ def problem_name(args) -> str:
 
 
 def _box(spec, what: str):
-    from .._parse import FieldSyntaxError, parse_number
-
     if isinstance(spec, str):
         parts = spec.split(",")
         if len(parts) != 2:
@@ -81,8 +82,6 @@ def _box(spec, what: str):
 
 
 def _read_field_file(path: str) -> dict:
-    import tomllib
-
     try:
         with open(path, "rb") as fh:
             data = tomllib.load(fh)
@@ -104,8 +103,6 @@ def _read_field_file(path: str) -> dict:
 
 def user_problem(args, params: dict):
     """A :class:`~vpforms.problems.Problem` for --field / --field-file (params from --param)."""
-    from .._errors import VPFormsError
-    from .._parse import field_from_text
     from ..problems._base import Problem, box_sampler
 
     if args.field is not None:

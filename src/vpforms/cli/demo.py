@@ -5,7 +5,13 @@ from __future__ import annotations
 import math
 import os
 import time
+from collections import Counter
 
+from rich.panel import Panel
+
+from .. import plots
+from .._case import cases
+from ..diagnostics import poincare_section
 from ._common import (
     _method,
 )
@@ -13,11 +19,7 @@ from .studies import _drift_panels, _order_study, _order_table
 
 
 def _cmd_demo(args, console) -> int:
-    import numpy as np
-    from rich.panel import Panel
-
-    from .. import plots, problems
-    from ..diagnostics import poincare_section
+    from .. import problems
 
     quick = args.quick
     out = os.path.abspath(args.out)
@@ -26,10 +28,6 @@ def _cmd_demo(args, console) -> int:
     console.print(Panel.fit(
         "vpforms demo: volume-preserving integrators from generating forms (arXiv 1412.6345)\n"
         f"figures → {out}", style="bold"))
-    from collections import Counter
-
-    from .._case import cases
-
     counts = Counter(c.cls for c in cases())
     console.print("36 cases (σ, Σ) in 5 classes: " + ", ".join(f"{k} {v}" for k, v in counts.items())
                   + "   (vpforms cases | vpforms classify 3,2,1 1,2,3)")
@@ -79,7 +77,6 @@ def _cmd_demo(args, console) -> int:
     console.print(f"[green]✓[/green] drift plot ({time.perf_counter() - t:.1f} s) → {png3}")
     console.print(Panel.fit(f"demo finished in {time.perf_counter() - t_all:.1f} s; figures in {out}:\n"
                             f"  {png1}\n  {png2}\n  {png3}\ncrossings CSV: {csv1}", style="green"))
-    del np
     return 0
 
 

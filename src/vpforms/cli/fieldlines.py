@@ -14,6 +14,18 @@ import time
 
 import numpy as np
 
+from .. import plots
+from ..coils import read_makegrid
+from ..fieldlines import (
+    Wall,
+    cylindrical,
+    island_chain,
+    magnetic_axis,
+    return_map,
+    rotational_transform,
+    toroidal_section,
+    trace_to_wall,
+)
 from ._common import (
     CLIError,
     _add_method_args,
@@ -31,15 +43,13 @@ from ._common import (
 def _field_source(args):
     """(field, nfp, axis guess, default start radii span, name) of the chosen source."""
     from .. import problems
+    from ..problems.coil_fields import spline_coil_field
 
     if args.coils and args.mgrid:
         raise CLIError("give one of --coils and --mgrid, not both")
     guess = tuple(args.axis_guess) if args.axis_guess else None
     if args.coils or args.mgrid:
         if args.coils:
-            from ..coils import read_makegrid
-            from ..problems.coil_fields import spline_coil_field
-
             if not (args.R and args.Z):
                 raise CLIError("--coils needs the grid box: --R RMIN,RMAX --Z ZMIN,ZMAX")
             coils = read_makegrid(args.coils)
@@ -71,25 +81,12 @@ def _field_source(args):
     guess = guess or prob.axis_guess
     if guess is None:
         raise CLIError(f"problem {args.problem!r} has no axis guess: give --axis-guess R,Z")
-    from ..fieldlines import cylindrical
-
     R = np.asarray(cylindrical(prob.x0, True)[0]) if prob.field.coordinates.startswith("toroidal") else \
         np.hypot(prob.x0[:, 0], prob.x0[:, 1])
     return prob.field, nfp, guess, (float(R.min() - guess[0]), float(R.max() - guess[0])), prob.name
 
 
 def _cmd_fieldlines(args, console) -> int:
-    from .. import plots
-    from ..fieldlines import (
-        Wall,
-        island_chain,
-        magnetic_axis,
-        return_map,
-        rotational_transform,
-        toroidal_section,
-        trace_to_wall,
-    )
-
     _check_out(args.png, args.iota_png, args.csv)
     refuse_unless(args, ("R", "Z", "grid"), bool(args.coils), "without --coils (the spline grid of a coils file)")
     refuse_unless(args, ("problem", "param"), not (args.coils or args.mgrid),

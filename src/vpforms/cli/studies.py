@@ -2,6 +2,19 @@
 
 from __future__ import annotations
 
+import numpy as np
+from rich.progress import Progress
+from rich.table import Table
+
+from .. import plots
+from .._integrate import RK4, integrate
+from ..diagnostics import (
+    fit_order,
+    invariant_drift,
+    log_det,
+    reference_solution,
+    step_size_errors,
+)
 from ._common import (
     CLIError,
     _add_method_args,
@@ -17,15 +30,12 @@ from ._common import (
     _spec_label,
     refuse_unless,
 )
+from ._explain import explain_rerun
 
 
 def _order_study(prob, specs, T, hs, x0, console, fast=False):
     """Errors at T for each method spec over hs, from the initial conditions x0 (N, 3); returns
     label → OrderFit."""
-    from rich.progress import Progress
-
-    from ..diagnostics import fit_order, reference_solution, step_size_errors
-
     with console.status("reference solution (DOP853, rtol 1e-13)…"):
         ref = reference_solution(prob.field, x0, T)
     fits = {}
@@ -42,8 +52,6 @@ def _order_study(prob, specs, T, hs, x0, console, fast=False):
 
 
 def _order_table(fits, title):
-    from rich.table import Table
-
     hs = next(iter(fits.values())).hs
     t = Table(title=title)
     t.add_column("h", justify="right")
@@ -56,8 +64,6 @@ def _order_table(fits, title):
 
 
 def _cmd_order(args, console) -> int:
-    from .. import plots
-
     _check_out(args.png)
     refuse_unless(args, ("h_max", "levels"), not args.hs, "with --hs (it lists the step sizes)")
     specs = [_parse_method_spec(s) for s in (args.methods or ["SE+SE", "SE+SE:2", "SE+SE:4", "rk4"])]
@@ -84,11 +90,6 @@ def _drift_panels(prob, method, h, steps, x0, console, label=None, failures=None
 
     ``failures`` (a dict), when given, receives label → (method, x0, per-orbit status) for every
     method with failed orbits (to explain them, issue #12)."""
-    import numpy as np
-
-    from .._integrate import RK4, integrate
-    from ..diagnostics import invariant_drift, log_det
-
     label = label or "vpforms " + getattr(method, "name", "method")
     methods = {label: method, "RK4": RK4(prob.field)}
     vol, inv = {}, {}
@@ -111,10 +112,6 @@ def _drift_panels(prob, method, h, steps, x0, console, label=None, failures=None
 
 
 def _cmd_drift(args, console) -> int:
-    from rich.table import Table
-
-    from .. import plots
-
     _check_out(args.png)
     prob = _problem(args)
     method = _method_from_args(args, prob.field)
@@ -131,8 +128,6 @@ def _cmd_drift(args, console) -> int:
         t.add_row(label, *[str(row[k]) if isinstance(row[k], int) else f"{row[k]:.3e}" for k in keys])
     console.print(t)
     console.print(f"figure: {args.png}", soft_wrap=True)
-    from ._explain import explain_rerun
-
     for label, (m, x0, status) in failures.items():  # why orbits failed, with a hint (issue #12)
         explain_rerun(console, status, m, x0, args.h, args.steps, f"failed orbits of {label}")
     return 0

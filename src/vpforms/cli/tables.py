@@ -2,6 +2,14 @@
 
 from __future__ import annotations
 
+from collections import Counter
+
+import sympy as sp
+from rich.table import Table
+
+from .. import symbolic
+from .._case import Case, cases
+from ..symbolic import tables
 from ._common import (
     CLIError,
     _parse_perm,
@@ -9,10 +17,6 @@ from ._common import (
 
 
 def _cases_table():
-    from rich.table import Table
-
-    from .._case import cases
-
     table = Table(title="The 36 cases (σ, Σ) of eq:volpot and their classes")
     for col in ("#", "σ", "Σ", "τ = σ⁻¹∘Σ", "sgn τ", "class", "x₊ x∘ x₋", "X₊ X∘ X₋"):
         table.add_column(col)
@@ -31,13 +35,7 @@ def _cases_table():
 
 
 def _cmd_cases(args, console) -> int:
-    from collections import Counter
-
-    from .._case import cases
-
     if args.format != "rich":  # the renderers of vpforms.symbolic.tables (issue #11)
-        from ..symbolic import tables
-
         print((tables.table36_markdown if args.format == "markdown" else tables.table36_latex)(
             prove=args.prove), end="")
         return 0
@@ -48,8 +46,6 @@ def _cmd_cases(args, console) -> int:
 
 
 def _cmd_classify(args, console) -> int:
-    from .._case import Case
-
     c = Case(_parse_perm(args.sigma), _parse_perm(args.Sigma))
     console.print(f"case {c}: τ = σ⁻¹∘Σ = {c.tau.one_line()}, sgn τ = {c.sign:+d}, class [bold]{c.cls}[/bold]")
     r = c.roles
@@ -63,10 +59,6 @@ def _cmd_classify(args, console) -> int:
 
 def _errata_function():
     """The symbolic errata report of issue #3, if present: a callable returning text."""
-    try:
-        from .. import symbolic
-    except ImportError as exc:
-        raise CLIError(f"the symbolic layer (vpforms.symbolic) is not available: {exc}") from None
     for mod_name in ("errata", "report"):
         try:
             mod = __import__(f"{symbolic.__name__}.{mod_name}", fromlist=["_"])
@@ -87,8 +79,6 @@ def _cmd_errata(args, console) -> int:
     fn = _errata_function()
     kw = {}
     if args.matrix:
-        import sympy as sp
-
         try:
             rows = [[sp.Rational(v.strip()) for v in r.split(",")] for r in args.matrix.split(";")]
             A = sp.Matrix(rows)

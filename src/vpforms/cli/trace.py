@@ -5,6 +5,12 @@ from __future__ import annotations
 import math
 import time
 
+import numpy as np
+
+from .. import plots
+from .._integrate import integrate
+from ..backends import NativeUnavailableError
+from ..diagnostics import invariant_drift, poincare_section
 from . import _distributed
 from ._common import (
     CLIError,
@@ -22,10 +28,6 @@ from ._explain import explain_rerun, explain_solution, recovered_text
 
 
 def _cmd_run(args, console) -> int:
-    import numpy as np
-
-    from .._integrate import integrate
-
     _check_out(args.out)
     store = str(args.out).endswith(".zarr")
     refuse_unless(args, STORE_OPTIONS, store, "without a .zarr store (--out run.zarr): an .npz run is in process")
@@ -37,8 +39,6 @@ def _cmd_run(args, console) -> int:
     x0 = prob.initial_conditions(args.particles, seed=args.seed)
     if store:  # a store run: chunked, resumable, optionally distributed
         return _distributed.cmd_run_store(args, prob, method, x0, console)
-    from ..backends import NativeUnavailableError
-
     try:
         sol = integrate(method, x0, args.h, args.steps, save_every=args.save_every,
                         chunk_size=args.chunk_size, progress="auto", backend=args.backend)
@@ -61,8 +61,6 @@ def _cmd_run(args, console) -> int:
         "ns per particle-step (incl. compile)": round(sol.stats["ns_per_particle_step"], 1),
     }
     if prob.invariants:
-        from ..diagnostics import invariant_drift
-
         for name, d in invariant_drift(prob.invariants, sol.xs[None] if sol.xs.ndim == 2 else sol.xs).items():
             rows[f"max |Δ {name}|"] = f"{float(np.max(np.abs(d))):.3e}"
     console.print(_summary_table("vpforms run", rows))
@@ -85,9 +83,6 @@ def _default_period(prob, axis: int, given: float | None) -> float | None:
 
 
 def _cmd_poincare(args, console) -> int:
-    from .. import plots
-    from ..diagnostics import poincare_section
-
     _check_out(args.png, args.csv)
     prob = _problem(args)
     method = _method_from_args(args, prob.field)

@@ -22,7 +22,11 @@ from typing import Any
 
 import numpy as np
 
-from .._errors import RESULTS
+from .._case import Case
+from .._errors import RESULTS, VPFormsError
+from .._methods.scheme import class_name
+from .._spec import method_from_spec, method_spec
+from .twist import _statuses, twist_map
 
 __all__ = ["FailureReport", "explain_failures", "failure_breakdown"]
 
@@ -94,8 +98,6 @@ def _pct(x: float) -> str:
 
 def _smaller_h(bare, pts: np.ndarray, h: float):
     """(largest h/2^j with every step from pts successful or None, success fraction at h/2^k)."""
-    from .twist import _statuses
-
     frac = 0.0
     for j in range(1, _HALVINGS + 1):
         hj = h / 2**j
@@ -189,9 +191,6 @@ def _with_fast(spec):
     if not isinstance(spec, dict):
         return None
     if spec.get("kind") == "scheme":
-        from .._case import Case
-        from .._methods.scheme import class_name
-
         case, opts = spec["case"], dict(spec.get("options", {}))
         cls = class_name(case) if isinstance(case, str) else Case(*(tuple(c) for c in case)).cls
         if cls not in ("SE+DL", "DL+DL") or opts.get("fast") or opts.get("printed"):
@@ -205,9 +204,6 @@ def _with_fast(spec):
 
 def _fast_ok(bare, pts, h):
     """Fraction of the failed steps that the nested θ-stage evaluation of the same map takes."""
-    from .._errors import VPFormsError
-    from .._spec import method_from_spec, method_spec
-
     try:
         spec = _with_fast(method_spec(bare))
         if spec is None:
@@ -220,9 +216,6 @@ def _fast_ok(bare, pts, h):
 
 def _twist_at(method, pts, h):
     """The class twist map at the failure states, or None where it does not apply (e.g. RK4)."""
-    from .._errors import VPFormsError
-    from .twist import twist_map
-
     if getattr(method, "case", None) is None:  # not a generating-form method: no twist to compare
         return None
     try:

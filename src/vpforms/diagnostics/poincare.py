@@ -14,7 +14,7 @@ from jax import lax
 
 from .. import _config  # noqa: F401
 from .._errors import RESULTS
-from .._integrate import _Bar, _check_run, _StepFn, auto_chunk_size
+from .._integrate import _Bar, _check_run, _StepFn, auto_chunk_size, describe
 from .._recovery import bare_first
 from ._common import _chunks, _pad
 from ._locate import illinois
@@ -297,8 +297,6 @@ def _section_on(method, pts, h, n_steps, surface, direction, max_crossings, inte
             thetas[lo:hi] = np.asarray(th)[: hi - lo]
             fallback[lo:hi] = np.asarray(fb)[: hi - lo]
         order = np.lexsort((ns, ps))
-        from .._integrate import describe
-
         return PoincareSection(
             points=pts_out[order],
             particle=ps[order].astype(np.int64),

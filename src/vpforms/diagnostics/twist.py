@@ -20,7 +20,10 @@ from typing import Any
 import numpy as np
 
 from .. import _config  # noqa: F401
-from .._errors import RESULTS
+from .._case import CLASSES, Case, cases
+from .._errors import RESULTS, VPFormsError
+from .._methods.scheme import scheme
+from .._solution import describe
 
 __all__ = ["TwistRow", "TwistMap", "twist_map"]
 
@@ -111,8 +114,6 @@ def _field_of(obj: Any):
 
 
 def _candidates(which):
-    from .._case import CLASSES, Case, cases
-
     if which == "classes":
         return list(CLASSES)
     if which == "all":
@@ -145,8 +146,6 @@ _CANDIDATES: dict = {}
 
 
 def _candidate(f, c, options):
-    from .._methods.scheme import scheme
-
     key = (id(f), c if isinstance(c, str) else (c.sigma.one_line(), c.Sigma.one_line()),
            repr(sorted(options.items())))
     hit = _CANDIDATES.get(key)
@@ -193,9 +192,6 @@ def twist_map(method_or_field: Any, points: Any, h: float = 0.1, cases: Any = "c
     Each candidate takes one step from every point with ``scheme(field, c, recover=False)`` and its
     per-point status is counted (see the module docstring): no separate twist formula.
     """
-    from .._errors import VPFormsError
-    from .._integrate import describe
-
     f, method = _field_of(method_or_field)
     pts = np.asarray(points, dtype=np.float64)
     if pts.ndim not in (1, 2) or pts.shape[-1] != 3 or pts.size == 0:

@@ -13,7 +13,7 @@ from jax import lax
 
 from .. import _config  # noqa: F401
 from .._errors import RESULTS
-from .._integrate import _check_run, _StepFn, auto_chunk_size
+from .._integrate import _check_run, _StepFn, auto_chunk_size, describe
 from .._recovery import bare_first
 from ._common import _chunks, _pad
 
@@ -112,8 +112,6 @@ def log_det(
     per, status = bare_first(trace, method, lambda r: bool(np.all(r[1] == RESULTS.successful)))
     acc = np.concatenate([np.zeros((N, 1)), np.cumsum(per, axis=1)], axis=1)
     ts = t0 + h * np.arange(n_steps + 1)
-    from .._integrate import describe
-
     if single:
         return LogDet(ts, per[0], acc[0], status[0], describe(method))
     return LogDet(ts, per, acc, status, describe(method))

@@ -30,11 +30,12 @@ import numpy as np
 from jax import lax
 
 from .._errors import RESULTS
-from .._integrate import _Bar, _check_run, _StepFn, auto_chunk_size
+from .._integrate import _Bar, _check_run, _StepFn, auto_chunk_size, integrate
 from .._recovery import bare_first
 from ..diagnostics._common import _chunks, _pad
 from ..diagnostics._surfaces import wrap_angle
 from ._geometry import cylindrical, is_toroidal
+from ._returnmap import ReturnMap
 
 __all__ = ["AxisCurve", "Iota", "axis_curve", "rotational_transform", "iota_profile", "birkhoff_weight"]
 
@@ -85,9 +86,6 @@ def axis_curve(method: Any, axis: Any, h: float, *, harmonics: int = 8) -> AxisC
     """The axis line traced from the fixed point ``axis`` (a :class:`FixedPoint` of
     :func:`magnetic_axis`) through one field period with the method, as a Fourier
     :class:`AxisCurve` in φ (for non-axisymmetric fields, where the axis moves with φ)."""
-    from .._integrate import integrate
-    from ._returnmap import ReturnMap
-
     P = ReturnMap(method, h, axis.phi0, axis.nfp)
     x = np.asarray(P.state(jnp.array([axis.R, axis.Z])))
     X, _ = method.step_with_status(jnp.asarray(x), h)

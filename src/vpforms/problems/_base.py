@@ -13,6 +13,7 @@ import numbers
 import numpy as np
 import sympy as sp
 
+from .._parse import parse_number
 from ..fields import SYMBOLS, Field, _lambdify_scalar, uniform_in_box
 
 __all__ = ["Problem", "invariant_callables", "box_sampler", "real_param"]
@@ -104,8 +105,6 @@ def real_param(name: str, value: Any):
     :func:`vpforms._parse.parse_number` (never ``sympify``/eval of text); anything else is a
     TypeError naming the parameter (found by tests/test_fuzz.py: a list gave AttributeError)."""
     if isinstance(value, str):
-        from .._parse import parse_number
-
         return parse_number(value, what=f"parameter {name}")
     if isinstance(value, bool) or not isinstance(value, (numbers.Real, sp.Basic)):
         raise TypeError(f"parameter {name} must be a real number, not {type(value).__name__} {value!r}")

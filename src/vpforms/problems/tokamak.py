@@ -38,6 +38,7 @@ from functools import lru_cache
 
 import numpy as np
 import sympy as sp
+from scipy.special import ellipk
 
 from ..fields import SYMBOLS, Field
 from ._base import Problem, invariant_callables, real_param
@@ -67,8 +68,6 @@ def safety_factor(rho, R0=1.0, B0=1.8):
     so T = 2√2 K(m)/√u₂ with m = (u₂ − u₁)/u₂ (Byrd–Friedman 233.00); at x₃ = 0, R = a:
     u₂ = a²/2 and q = 2B₀K(m)/(π R₀ a), m = 2(1 − R₀²/a²). Valid for 0 < ρ < (√2 − 1)R₀ (m < 1,
     inside the separatrix)."""
-    from scipy.special import ellipk
-
     rho = np.asarray(rho, float)
     a = R0 + rho
     m = 2.0 * (1.0 - R0**2 / a**2)

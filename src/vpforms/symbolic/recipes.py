@@ -38,6 +38,7 @@ from dataclasses import dataclass, field
 import sympy as sp
 
 from .._case import Case
+from .._potentials import potential_exprs  # the one implementation of MATH.md §3
 from ._symbols import A as A_SYM
 from ._symbols import X, X1, X2, X3, Y, h, x, x1, x2, x3, y
 from .forms import case_forms, check_dependencies
@@ -325,8 +326,6 @@ def _field(a) -> tuple[sp.Expr, sp.Expr, sp.Expr]:
 
 
 def _field_potentials(a, splitting: str) -> tuple[sp.Expr, sp.Expr]:
-    from ..fields import potential_exprs  # the one implementation of MATH.md §3
-
     pair = potential_exprs(_field(a), x, splitting)
     if pair is None:
         raise ValueError(f"SymPy cannot integrate the {splitting.upper()} potentials of {a!r} "

@@ -18,7 +18,9 @@ from typing import Any
 import numpy as np
 
 from ..._errors import RESULTS
+from ..._progress import _Bar
 from ..._recovery import bare_method, count_how, recover_points
+from ..._solution import make_solution, saved_steps
 from .build import build
 from .codegen import CDEF, kernel_source
 
@@ -112,8 +114,6 @@ def run_points(method, pts, h, steps, progress_cb=None, engine="auto", save=None
 
 def integrate_native(method, pts, single, h, n_steps, save_every, t0, progress, reason):
     """The native counterpart of the JAX loop in :func:`vpforms.integrate` (same Solution)."""
-    from ..._integrate import _Bar, make_solution, saved_steps
-
     steps = saved_steps(n_steps, save_every)
     # without saving, intermediate targets only for the progress bar (≤ 20 calls), not saved
     targets = steps if save_every is not None else np.unique(

@@ -39,6 +39,7 @@ from ...._errors import RESULTS
 from ...._guard import FLOOR as GUARD_FLOOR
 from ...._methods._base import Method
 from ...._quadrature import GL_T, GLSum, _nodes_weights
+from ...._solution import describe
 from ....symbolic import _symbols as G
 from .cprinter import printer as _printer
 from .plan import plan
@@ -466,8 +467,6 @@ def kernel_source(method: Any, engine: str = "auto") -> str:
     solves and ``FIXED_ITERS`` masked Newton iterations); a lane it does not decide as a success
     (a failure, or a solve still iterating) is redone by ``vp_step_exact`` (scalar, the early-exit
     solves of :func:`vpforms._newton.newton_scalar`), which gives it its exact status."""
-    from ...._integrate import describe
-
     if engine not in ("auto", "newton"):
         raise ValueError(f"engine must be 'auto' or 'newton', got {engine!r}")
     stages = plan(method)

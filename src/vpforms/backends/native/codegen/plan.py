@@ -20,6 +20,9 @@ from __future__ import annotations
 
 from typing import Any
 
+from ...._methods._base import Adjoint, Relabelled
+from ...._methods.compose import AdjointComposition, Composition, SymmetricPair
+from ...._methods.rk4 import RK4
 from .potentials import RK4Stage, class_stage, symbolic_reason
 
 __all__ = ["plan", "unsupported_reason"]
@@ -31,10 +34,6 @@ def _bare(method: Any) -> Any:
 
 def plan(method: Any) -> list[tuple[Any, float]] | str:
     """The stages of one step of ``method``, or the reason it cannot be generated."""
-    from ...._integrate import RK4
-    from ...._methods._base import Adjoint, Relabelled
-    from ...._methods.compose import AdjointComposition, Composition, SymmetricPair
-
     m = _bare(method)
     if isinstance(m, Composition):
         inner = plan(m.base)

@@ -29,6 +29,12 @@ from typing import Any
 import sympy as sp
 
 from ...._case import Case
+from ...._methods._linear import LinearRecipeMethod
+from ...._methods.correction import QuispelCorrection, correction_antiderivative
+from ...._methods.dl_dl import DLDL
+from ...._methods.se_dl import SEDL
+from ...._methods.se_se import SESE
+from ...._potentials import _quadrature_potentials
 from ...._quadrature import line_integral_expr
 from ....symbolic import _symbols as G
 from ....symbolic.recipes import flip_generic
@@ -156,8 +162,6 @@ def potential_pair(field: Any, splitting: str) -> tuple[sp.Expr, sp.Expr] | str:
       as :class:`~vpforms._quadrature.GLSum` (:func:`~vpforms._quadrature.line_integral_expr`),
       whose derivatives are the derivatives ``jax.grad`` takes of the JAX quadrature;
     * anything else (a gauge integral of supplied vector potentials by quadrature): the reason."""
-    from ...._potentials import _quadrature_potentials
-
     _, exprs, how = field._get(splitting)
     if exprs is not None:
         pair = _to_x(field, exprs)
@@ -195,12 +199,6 @@ def _newton(m) -> tuple[float, int, float]:
 
 def class_stage(m: Any) -> MapStage | str:
     """The generating map of the representative method ``m`` (bare), or why it is not generated."""
-    from ...._methods._linear import LinearRecipeMethod
-    from ...._methods.correction import QuispelCorrection
-    from ...._methods.dl_dl import DLDL
-    from ...._methods.se_dl import SEDL
-    from ...._methods.se_se import SESE
-
     name = getattr(m, "name", type(m).__name__)
     if isinstance(m, (DLDL, SEDL)) and not m.fast:
         return (f"{name}: the engine form (fast=False) solves the generating map of discrete "
@@ -238,8 +236,6 @@ def class_stage(m: Any) -> MapStage | str:
 
 
 def _correction_stage(m, a) -> CorrectionStage | str:
-    from ...._methods.correction import correction_antiderivative
-
     found = None if m._fc_closed is None else correction_antiderivative(m.field, m.roles)
     if found is None:
         return (f"{m.name}: the correction integral f_c is a quadrature for this field (its "
@@ -259,8 +255,6 @@ def _correction_stage(m, a) -> CorrectionStage | str:
 def _dl_stage(m) -> DLStage | str:
     """H¹(q, p; c) = G¹(c, q, p) on (x₂, x₃) with x₁ frozen, then H²(q, p; c) = −G²(q, c, p) on
     (x₁, x₃) with x₂ frozen (θ₂ = θ for DL+DL, 0 for SE+DL), as ``DLPredictor._init_predictor``."""
-    from ...._methods.dl_dl import DLDL
-
     pair = potential_pair(m.field, "dl")
     if isinstance(pair, str):
         return f"{m.name}: {pair}"
