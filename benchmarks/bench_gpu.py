@@ -112,8 +112,10 @@ def markdown(rows) -> str:
             "run per platform on the same machine)."), ""]
     for w in wheres:
         m = meta.get(w, {})
+        det = m.get("det_max_abs", float("nan"))
+        det = "not measured (the run stopped before it)" if det != det else f"{det:.1e}"
         out += [f"## {w}", "", (f"JAX {m.get('jax', '?')}, Python {m.get('python', '?')}; one order-4 step, "
-                                f"1000 particles: max |det J − 1| = {m.get('det_max_abs', float('nan')):.1e}."), "",
+                                f"1000 particles: max |det J − 1| = {det}."), "",
                 "| method | " + " | ".join(f"N = {N:,}" for N in sizes) + " |",
                 "|---|" + "---:|" * len(sizes)]
         for meth in methods:
