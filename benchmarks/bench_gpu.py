@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import platform
 import sys
@@ -113,7 +114,7 @@ def markdown(rows) -> str:
     for w in wheres:
         m = meta.get(w, {})
         det = m.get("det_max_abs", float("nan"))
-        det = "not measured (the run stopped before it)" if det != det else f"{det:.1e}"
+        det = "not measured (the run stopped before it)" if math.isnan(det) else f"{det:.1e}"
         out += [f"## {w}", "", (f"JAX {m.get('jax', '?')}, Python {m.get('python', '?')}; one order-4 step, "
                                 f"1000 particles: max |det J − 1| = {det}."), "",
                 "| method | " + " | ".join(f"N = {N:,}" for N in sizes) + " |",
