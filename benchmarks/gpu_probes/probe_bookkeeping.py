@@ -1,8 +1,18 @@
-import time, sys
-import numpy as np, jax, jax.numpy as jnp
+"""GPU probe (results_gpu.md, 'Where the time goes'): the batched step_with_status in a fori_loop, alone and with integrate's status bookkeeping, guard on/off.
+
+    PYTHONPATH=src:benchmarks python3 benchmarks/gpu_probes/probe_bookkeeping.py N
+"""
+# ruff: noqa: B023  (each closure is called inside the loop iteration that defines it)
+import sys
+import time
+
+import jax
+import jax.numpy as jnp
 from jax import lax
+
 import vpforms
-from vpforms import problems, RESULTS
+from vpforms import RESULTS, problems
+
 N = int(sys.argv[1]) if len(sys.argv) > 1 else 4_000_000
 abc = problems.get("abc"); x0 = jnp.asarray(abc.initial_conditions(N, seed=0)); h, n = 0.1, 100
 def timed(fn):
@@ -17,7 +27,7 @@ for guard in (True, False):
     sws = m.step_with_status
     def a():
         def body(i, c):
-            x, s = c
+            x, _s = c
             X, st = sws(x, h) if hasattr(sws, "with_recovery") else jax.vmap(sws, in_axes=(0, None))(x, h)
             return X, st
         return lax.fori_loop(0, n, body, (x0, jnp.zeros(N, jnp.int32)))
@@ -34,7 +44,7 @@ for guard in (True, False):
     def c():  # b on SoA columns
         def body(i, cc):
             x1, x2, x3, status = cc
-            X, st = jax.vmap(lambda p: m.step_with_status(p, h) if False else (m.step(p, h), jnp.int32(0)))(jnp.stack([x1, x2, x3], -1))
+            X, _st = jax.vmap(lambda p: m.step_with_status(p, h) if False else (m.step(p, h), jnp.int32(0)))(jnp.stack([x1, x2, x3], -1))
             ok = jnp.isfinite(X[:, 0]) & jnp.isfinite(X[:, 1]) & jnp.isfinite(X[:, 2])
             good = (status == 0) & ok
             return (jnp.where(good, X[:, 0], x1), jnp.where(good, X[:, 1], x2), jnp.where(good, X[:, 2], x3),

@@ -1,7 +1,14 @@
-import time, sys
-import jax, numpy as np
+"""GPU probe (results_gpu.md, 'Where the time goes'): the fixed cost of an integrate() call: 1, 100, 256, 400 steps, with and without saves.
+
+    PYTHONPATH=src:benchmarks python3 benchmarks/gpu_probes/probe_fixed_cost.py N
+"""
+
+import sys
+import time
+
 import vpforms
 from vpforms import problems
+
 N = int(sys.argv[1]); abc = problems.get("abc"); x0 = abc.initial_conditions(N, seed=0)
 m = vpforms.scheme(abc.field, "SE+SE", fast=True, recover=False)
 def t_of(n, se):

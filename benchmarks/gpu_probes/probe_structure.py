@@ -1,10 +1,23 @@
-import time, types, sys, os
-import numpy as np, jax, jax.numpy as jnp
+"""GPU probe (results_gpu.md, 'Where the time goes'): integrate() with the consistency guard on/off and lax.cond replaced by where, against the hand-written kernel and vmap(step) in a fori_loop.
+
+    PYTHONPATH=src:benchmarks python3 benchmarks/gpu_probes/probe_structure.py N
+"""
+# ruff: noqa: B023  (each closure is called inside the loop iteration that defines it)
+import sys
+import time
+import types
+
+import jax
+import jax.numpy as jnp
 from jax import lax
-import vpforms, vpforms._integrate as I
+
+import vpforms
+import vpforms._integrate as I
 from vpforms import problems
+
 sys.path.insert(0, "benchmarks")
 from bench_abc import _jax_kernels
+
 N = int(sys.argv[1]) if len(sys.argv) > 1 else 4_000_000
 abc = problems.get("abc"); x0 = abc.initial_conditions(N, seed=0); h, n = 0.1, 100
 def timed(fn):
