@@ -24,7 +24,10 @@ from ..._solution import make_solution, saved_steps
 from .build import build
 from .codegen import CDEF, kernel_source
 
-__all__ = ["NativeKernel", "run_points", "integrate_native"]
+__all__ = ["NativeKernel", "integrate_native", "run_points", "run_saving"]
+
+#: kernel calls per run at most (the progress bar's granularity; each call costs ~10 µs + a thread wake-up)
+CALLS = 20
 
 
 class NativeKernel:
@@ -38,15 +41,25 @@ class NativeKernel:
 
         self._ffi = FFI()
 
-    def advance(self, x: np.ndarray, status: np.ndarray, n: np.ndarray, n_target: int, h: float):
-        """In place: every live particle with n < n_target steps until n_target or its failure."""
+    def advance(self, x: np.ndarray, status: np.ndarray, n: np.ndarray, n_target: int, h: float,
+                save_every: int = 0, n_total: int = 0, xs: np.ndarray | None = None):
+        """In place: every live particle with n < n_target steps until n_target or its failure.
+
+        With ``save_every`` > 0 the kernel also writes the saved states into ``xs`` (N, S, 3),
+        C-contiguous: slot j the state after step j·save_every, the last slot after ``n_total``
+        (a frozen particle's later slots: its frozen state)."""
         f = self._ffi
+        if save_every > 0:
+            assert xs is not None and xs.flags.c_contiguous and xs.shape[0] == x.shape[0]
+            out, n_saves = f.cast("double *", xs.ctypes.data), xs.shape[1] - 1
+        else:
+            out, n_saves = f.NULL, 0
         self.lib.lib.vp_run(
             x.shape[0],
             f.cast("double *", x.ctypes.data),
             f.cast("int32_t *", status.ctypes.data),
             f.cast("int64_t *", n.ctypes.data),
-            int(n_target), float(h),
+            int(n_target), float(h), int(save_every), int(n_total), out, int(n_saves),
         )
 
 
@@ -59,13 +72,16 @@ def kernel_for(method: Any, engine: str = "auto") -> NativeKernel:
     return hit[1]
 
 
-def _advance_with_recovery(kernel, method, x, status, n, recovered, n_target, h, how):
+def _advance_with_recovery(kernel, method, x, status, n, recovered, n_target, h, how, saving=None):
     """Advance natively to n_target; recover failed steps lazily as the JAX backend does
-    (:mod:`vpforms._recovery`: the same alternatives, in the same order) and go on natively."""
+    (:mod:`vpforms._recovery`: the same alternatives, in the same order) and go on natively.
+    ``saving`` = (save_every, n_total, xs): the kernel writes the saves (:meth:`NativeKernel.advance`);
+    a recovered step's own save is written here."""
     lazy = bare_method(method) is not method
+    save_every, n_total, xs = saving if saving is not None else (0, 0, None)
     while True:
         before = status.copy()
-        kernel.advance(x, status, n, n_target, h)
+        kernel.advance(x, status, n, n_target, h, save_every, n_total, xs)
         idx = np.flatnonzero((before == RESULTS.successful) & (status != RESULTS.successful))
         # a non-finite state fails every alternative too (each maps the same point): not tried
         idx = idx[np.all(np.isfinite(x[idx]), axis=1)]
@@ -81,6 +97,10 @@ def _advance_with_recovery(kernel, method, x, status, n, recovered, n_target, h,
         status[g] = RESULTS.successful
         n[g] += 1
         recovered[g] += 1
+        if xs is not None:  # the recovered step's save (the kernel filled the frozen state there)
+            at = (n[g] % save_every == 0) | (n[g] == n_total)
+            slot = np.where(n[g] % save_every == 0, n[g] // save_every, xs.shape[1] - 1)
+            xs[g[at], slot[at]] = x[g[at]]
 
 
 def run_points(method, pts, h, steps, progress_cb=None, engine="auto", save=None, how=None):
@@ -112,19 +132,48 @@ def run_points(method, pts, h, steps, progress_cb=None, engine="auto", save=None
     return xs, status, failed, recovered
 
 
+def run_saving(method, pts, h, n_steps, save_every, progress_cb=None, engine="auto", how=None, calls=CALLS):
+    """Like :func:`run_points` for the saves of ``save_every`` (steps 0, k, 2k, …, n_steps), but the
+    kernel writes the saved states itself: at most ``calls`` kernel calls (the progress bar's
+    granularity) whatever the number of saves, so saving every step costs no call per save."""
+    how = {} if how is None else how
+    kernel = kernel_for(method, engine)
+    steps = saved_steps(n_steps, save_every)
+    N, S = pts.shape[0], steps.size
+    x = np.ascontiguousarray(pts, dtype=np.float64).copy()
+    status = np.zeros(N, dtype=np.int32)
+    n = np.zeros(N, dtype=np.int64)
+    recovered = np.zeros(N, dtype=np.int64)
+    xs = np.empty((N, S, 3))
+    xs[:, 0] = x
+    # segment ends at saved steps, ≤ `calls` of them (the last is n_steps)
+    ends = np.unique(steps[np.linspace(0, S - 1, min(S - 1, calls) + 1).astype(np.int64)][1:])
+    done = 0
+    for end in ends:
+        _advance_with_recovery(kernel, method, x, status, n, recovered, int(end), h, how,
+                               saving=(int(save_every), int(n_steps), xs))
+        if progress_cb is not None:
+            progress_cb(N * int(end - done))
+        done = int(end)
+    failed = np.where(status != RESULTS.successful, n, -1)
+    return xs, status, failed, recovered
+
+
 def integrate_native(method, pts, single, h, n_steps, save_every, t0, progress, reason):
     """The native counterpart of the JAX loop in :func:`vpforms.integrate` (same Solution)."""
     steps = saved_steps(n_steps, save_every)
-    # without saving, intermediate targets only for the progress bar (≤ 20 calls), not saved
-    targets = steps if save_every is not None else np.unique(
-        np.linspace(0, n_steps, min(n_steps, 20) + 1).astype(np.int64))
     N = pts.shape[0]
     bar = _Bar(progress, N * n_steps, "integrating (native)")
     t_wall = time.perf_counter()
     try:
-        keep = np.isin(targets, steps)
         how: dict[str, int] = {}
-        xs, status, failed, recovered = run_points(method, pts, h, targets, bar.update, save=keep, how=how)
+        if save_every is not None and n_steps > 0:
+            xs, status, failed, recovered = run_saving(method, pts, h, n_steps, int(save_every), bar.update, how=how)
+        else:
+            # without saving, intermediate targets only for the progress bar (≤ CALLS calls), not saved
+            targets = np.unique(np.linspace(0, n_steps, min(n_steps, CALLS) + 1).astype(np.int64))
+            keep = np.isin(targets, steps)
+            xs, status, failed, recovered = run_points(method, pts, h, targets, bar.update, save=keep, how=how)
     finally:
         bar.close()
     stats = dict(wall_s=time.perf_counter() - t_wall, chunk_size=N, n_chunks=1 if N else 0, backend="native",

@@ -58,7 +58,8 @@ __all__ = ["BLOCK", "CDEF", "kernel_source"]
 BLOCK = 64
 #: Newton iterations of the vectorised pass (see :func:`_newton_fixed_c`); only speed depends on it
 FIXED_ITERS = 5
-CDEF = "void vp_run(int64_t N, double *x, int32_t *status, int64_t *n, int64_t n_target, double h);"
+CDEF = ("void vp_run(int64_t N, double *x, int32_t *status, int64_t *n, int64_t n_target, double h, "
+        "int64_t save_every, int64_t n_total, double *xs, int64_t n_saves);")
 
 
 #: glibc declares libmvec's vector variants only under __FAST_MATH__, which -fno-finite-math-only
@@ -510,7 +511,17 @@ def kernel_source(method: Any, engine: str = "auto") -> str:
 {fns}
 /* one step of {describe(method)}: {len(stages)} stage(s), generated from SymPy */
 {steps}
-void vp_run(int64_t N, double *x, int32_t *status, int64_t *n, int64_t n_target, double h) {{
+/* Saves (save_every > 0): xs has shape (N, n_saves + 1, 3), slot 0 the initial state (not
+   written here), slot j the state after step j·save_every and slot n_saves after n_total (the last
+   step, saved even off the stride). A live lane at a saved step writes its slot; a lane that stops
+   (its status set, now or before this call) fills its later slots with its frozen state, as the
+   JAX loop saves a frozen particle. So one call runs a whole segment, however many saves it holds. */
+static inline int64_t vp_slot(int64_t c, int64_t se, int64_t n_total, int64_t n_saves) {{
+    if (c % se == 0) return c / se;
+    return c == n_total ? n_saves : -1;
+}}
+void vp_run(int64_t N, double *x, int32_t *status, int64_t *n, int64_t n_target, double h,
+            int64_t save_every, int64_t n_total, double *xs, int64_t n_saves) {{
     int64_t nb = (N + B - 1) / B;
     #pragma omp parallel for schedule(dynamic, 1)
     for (int64_t b = 0; b < nb; b++) {{
@@ -553,6 +564,22 @@ void vp_run(int64_t N, double *x, int32_t *status, int64_t *n, int64_t n_target,
                 code = !inok ? {nf} : code ? code : fin ? 0 : {nf};
                 if (code == 0) {{ a1[i] = X1; a2[i] = X2; a3[i] = X3; nn[i] += 1; }}
                 else st[i] = code;
+            }}
+            if (save_every > 0) for (int i = 0; i < m; i++) {{
+                /* a live lane at a saved step writes its state (again, harmlessly, while it waits) */
+                if (st[i] != 0) continue;
+                int64_t j = vp_slot(nn[i], save_every, n_total, n_saves);
+                if (j > 0) {{
+                    double *o = xs + 3 * ((lo + i) * (n_saves + 1) + j);
+                    o[0] = a1[i]; o[1] = a2[i]; o[2] = a3[i];
+                }}
+            }}
+        }}
+        if (save_every > 0) for (int i = 0; i < m; i++) {{  /* frozen lanes: their later slots */
+            if (st[i] == 0) continue;
+            for (int64_t j = nn[i] / save_every + 1; j <= n_saves; j++) {{
+                double *o = xs + 3 * ((lo + i) * (n_saves + 1) + j);
+                o[0] = a1[i]; o[1] = a2[i]; o[2] = a3[i];
             }}
         }}
         for (int i = 0; i < m; i++) {{
