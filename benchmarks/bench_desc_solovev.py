@@ -147,8 +147,9 @@ def main(argv=None) -> int:
          "long_transits": 20 if smoke else 10_000, "rounds": 1 if smoke else args.rounds,
          "rtols": [1e-8] if smoke else [1e-8, 1e-10, 3e-11, 1e-12], "max_steps_per_transit": 5000}
     methods = ([(6, "blanes_moan", 32)] if smoke else
-               [(4, "blanes_moan", 64), (4, "blanes_moan", 128), (6, "blanes_moan", 32), (6, "blanes_moan", 48),
-                (6, "blanes_moan", 64), (8, "kahan_li", 16), (8, "kahan_li", 24), (8, "kahan_li", 32)])
+               [(4, "blanes_moan", 128), (6, "blanes_moan", 32), (6, "blanes_moan", 48), (6, "blanes_moan", 64),
+                (6, "blanes_moan", 72), (8, "kahan_li", 16), (8, "kahan_li", 24), (8, "kahan_li", 32),
+                (8, "kahan_li", 36), (8, "kahan_li", 40)])
     load0 = os.getloadavg()
     ref = reference(R0, Z0, P["accuracy_transits"])
     field, y0, build, rows = run_vpforms(R0, Z0, P, ref, methods, P["rounds"])
