@@ -42,10 +42,11 @@ from vpforms.toroidal import ToroidalPotential, contravariant_field
 MU0 = 4e-7 * math.pi  # independent of the package's constant
 HYP = settings(max_examples=60, deadline=None, derandomize=True)
 
-# The measured physics quoted in vpforms.coils.library (python -m tests.test_coils recomputes it)
-TOKAMAK_Q = {0.10: 0.5440, 0.15: 1.1343, 0.20: 1.8996, 0.25: 2.8288, 0.30: 3.9203, 0.40: 6.6458, 0.45: 8.3377}
-STELL_AXIS_R = 0.983112
-STELL_IOTA = {0.02: 0.31215, 0.04: 0.31328, 0.08: 0.32017, 0.12: 0.34203, 0.14: 0.36540, 0.16: 0.40359}
+# The radii of the field-line physics checked below (vpforms.coils.library's docstrings quote q / ι
+# there: python -m tests.test_coils prints them). The expected values are computed in the tests by
+# DOP853 (fixtures below), never recorded.
+TOKAMAK_RADII = (0.10, 0.15, 0.20, 0.25, 0.30, 0.40, 0.45)
+STELL_RADII = (0.02, 0.04, 0.08, 0.12, 0.14, 0.16)
 
 
 # ----------------------------------------------------------------------------------- fixtures
@@ -57,6 +58,24 @@ def tokamak() -> CoilSet:
 @pytest.fixture(scope="module")
 def stellarator() -> CoilSet:
     return l2_stellarator()
+
+
+@pytest.fixture(scope="module")
+def stell_axis(stellarator) -> np.ndarray:
+    """(R, Z) of the stellarator's magnetic axis at φ = 0: scipy root on the DOP853 return map (~1 s)."""
+    return find_axis(stellarator)
+
+
+@pytest.fixture(scope="module")
+def tokamak_q_dop853(tokamak) -> dict:
+    """q = 1/ι about the ring (R = 1, Z = 0) at TOKAMAK_RADII, DOP853 over 20 turns (~5 s)."""
+    return dict(zip(TOKAMAK_RADII, 1 / dop853_iota(tokamak, TOKAMAK_RADII, np.array([1.0, 0.0]), turns=20)))
+
+
+@pytest.fixture(scope="module")
+def stell_iota_dop853(stellarator, stell_axis) -> dict:
+    """ι about the axis at STELL_RADII, DOP853 over 40 turns (~8 s)."""
+    return dict(zip(STELL_RADII, dop853_iota(stellarator, STELL_RADII, stell_axis, turns=40)))
 
 
 def polygon_loop(a: float, current: float, M: int, z0: float = 0.0) -> CoilSet:
@@ -123,6 +142,32 @@ def dop853_map(cs: CoilSet, y, phi_end: float) -> np.ndarray:
     sol = solve_ivp(_rhs_numpy(cs), (0.0, phi_end), np.asarray(y, float), method="DOP853", rtol=1e-10, atol=1e-12)
     assert sol.success, sol.message
     return sol.y[:, -1]
+
+
+def dop853_iota(cs: CoilSet, r, axis, *, turns: int) -> np.ndarray:
+    """ι of the lines from (R_ax + r, Z_ax), φ = 0, by DOP853 (rtol 1e-10) in φ — independent of the
+    RK4 tracer: all lines as one system, their angle θ = atan2(−(Z − Z_ax), R − R_ax) about the axis at
+    the section crossings φ = 2πk/nfp (where the axis is at (R_ax, Z_ax)), unwrapped (the gain per
+    period is checked < π/2, so unwrapping counts the turns as the step-by-step angle does), and
+    fitted by :func:`fit_iota` as the tracer's angles are."""
+    r = np.atleast_1d(np.asarray(r, float))
+    B = jax.jit(cs.B)
+
+    def rhs(phi, y):
+        R, Z = y[0::2], y[1::2]
+        c, s = math.cos(phi), math.sin(phi)
+        b = np.asarray(B(np.stack([R * c, R * s, Z], -1)))
+        BR, Bphi = b[:, 0] * c + b[:, 1] * s, -b[:, 0] * s + b[:, 1] * c
+        return np.stack([R * BR / Bphi, R * b[:, 2] / Bphi], -1).ravel()
+
+    phis = 2 * np.pi / cs.nfp * np.arange(cs.nfp * turns + 1)
+    y0 = np.stack([axis[0] + r, np.full_like(r, axis[1])], -1).ravel()
+    sol = solve_ivp(rhs, (0.0, phis[-1]), y0, method="DOP853", rtol=1e-10, atol=1e-12, t_eval=phis)
+    assert sol.success, sol.message
+    Y = sol.y.T.reshape(len(phis), len(r), 2)
+    dth = np.diff(np.unwrap(np.arctan2(-(Y[..., 1] - axis[1]), Y[..., 0] - axis[0]), axis=0), axis=0)
+    assert np.abs(dth).max() < np.pi / 2
+    return fit_iota(dth, cs.nfp)
 
 
 def find_axis(cs: CoilSet, guess=(1.0, 0.0)) -> np.ndarray:
@@ -730,39 +775,48 @@ def test_library_parameter_errors():
 
 
 # ================================================================== library: field-line physics
-def test_stellarator_axis_and_iota_near_the_axis(stellarator):
-    # the documented axis is a fixed point of the DOP853 return map (to its 6 digits; the root itself
-    # is found in test_stellarator_axis_by_root_finding), a point 1 mm off it is not
-    axis = np.array([STELL_AXIS_R, 0.0])
-    assert np.abs(dop853_map(stellarator, axis, 2 * np.pi / 5) - axis).max() < 5e-6
-    assert np.abs(dop853_map(stellarator, axis + [1e-3, 0], 2 * np.pi / 5) - axis - [1e-3, 0]).max() > 1e-4
+def rk4_map(cs: CoilSet, y, steps: int) -> np.ndarray:
+    """The RK4 tracer's map over one field period (φ = 0 → 2π/nfp) of one point (R, Z)."""
+    y = np.asarray(y, float)
+    return np.asarray(_rk4_trace(cs, jnp.asarray(y[None]), jnp.asarray(y), 1, steps, False)[0])[0, 0]
+
+
+def test_stellarator_axis_and_iota_near_the_axis(stellarator, stell_axis):
+    # the axis (scipy root on the DOP853 return map) is a fixed point of the RK4 tracer's map too (an
+    # independent integrator; 16 steps per period), a point 1 mm off it is not
+    axis = stell_axis
+    assert np.abs(rk4_map(stellarator, axis, 16) - axis).max() < 5e-6
+    assert np.abs(rk4_map(stellarator, axis + [1e-3, 0], 16) - axis - [1e-3, 0]).max() > 1e-4
     sec, iota = trace(stellarator, [0.04, 0.08], axis, turns=6, steps=16, moving_axis=True)
-    np.testing.assert_allclose(iota, [STELL_IOTA[0.04], STELL_IOTA[0.08]], atol=2e-4)
+    np.testing.assert_allclose(iota, dop853_iota(stellarator, [0.04, 0.08], axis, turns=6), atol=2e-4)
     assert curve_residual(sec[:, 1], iota[1], 5) < 1e-3
 
 
 def test_tokamak_q_at_two_radii(tokamak):
     sec, iota = trace(tokamak, [0.2, 0.3], np.array([1.0, 0.0]), turns=3, steps=8, moving_axis=False)
-    np.testing.assert_allclose(1 / iota, [TOKAMAK_Q[0.2], TOKAMAK_Q[0.3]], rtol=1e-3)
+    np.testing.assert_allclose(iota, dop853_iota(tokamak, [0.2, 0.3], np.array([1.0, 0.0]), turns=3), rtol=1e-3)
     # the cylindrical estimate q ≈ 2π r̄² B0/(μ0 I_p R0), r̄ the surface's mean distance from the ring
     rbar = np.hypot(sec[..., 0] - 1, sec[..., 1]).mean(0)
     np.testing.assert_allclose(1 / iota, 2 * np.pi * rbar**2 / (MU0 * 70e3), rtol=0.15)
 
 
 @pytest.mark.slow
-def test_stellarator_axis_by_root_finding(stellarator):
-    axis = find_axis(stellarator)  # scipy root on the DOP853 return map over one field period
-    assert axis[0] == pytest.approx(STELL_AXIS_R, abs=2e-6) and abs(axis[1]) < 1e-8  # Z = 0: stellsym
+def test_stellarator_axis_by_root_finding(stellarator, stell_axis):
+    # scipy root on the DOP853 return map over one field period (the fixture) against root on the
+    # RK4 tracer's map (48 steps per period: its error in the map ~1e-9)
+    axis = stell_axis
+    rk4_axis = root(lambda y: rk4_map(stellarator, y, 48) - y, np.array([1.0, 0.0]), tol=1e-12).x
+    assert axis[0] == pytest.approx(rk4_axis[0], abs=2e-6) and abs(axis[1]) < 1e-8  # Z = 0: stellsym
     np.testing.assert_allclose(dop853_map(stellarator, axis, 2 * np.pi / 5), axis, atol=1e-9)
     # the vertical-field pair moves it outward (docstring: ≈ 8.2 kA centres it on R0)
     assert find_axis(l2_stellarator(vf_current=8.2e3))[0] == pytest.approx(1.0, abs=1e-3)
 
 
 @pytest.mark.slow
-def test_rk4_tracer_agrees_with_dop853(stellarator, tokamak):
+def test_rk4_tracer_agrees_with_dop853(stellarator, stell_axis, tokamak):
     # the RK4 tracer (used for ι and the sections) against DOP853 at rtol 1e-12 over two turns, and
     # its error falls by ≈ 2⁴ when the step is halved (order 4)
-    for cs, axis, r in ((stellarator, np.array([STELL_AXIS_R, 0.0]), 0.1), (tokamak, np.array([1.0, 0.0]), 0.25)):
+    for cs, axis, r in ((stellarator, stell_axis, 0.1), (tokamak, np.array([1.0, 0.0]), 0.25)):
         sol = solve_ivp(_rhs_numpy(cs), (0.0, 4 * np.pi), [axis[0] + r, axis[1]], method="DOP853", rtol=1e-12,
                         atol=1e-13)
         err = [np.abs(trace(cs, [r], axis, turns=2, steps=n, moving_axis=False)[0][-1, 0] - sol.y[:, -1]).max()
@@ -773,13 +827,12 @@ def test_rk4_tracer_agrees_with_dop853(stellarator, tokamak):
 
 
 @pytest.mark.slow
-def test_tokamak_closed_nested_surfaces_and_q_profile(tokamak):
-    rs = sorted(TOKAMAK_Q) + [0.35]
-    rs.sort()
+def test_tokamak_closed_nested_surfaces_and_q_profile(tokamak, tokamak_q_dop853):
+    rs = sorted([*TOKAMAK_RADII, 0.35])
     sec, iota = trace(tokamak, rs, np.array([1.0, 0.0]), turns=20, steps=16, moving_axis=False)
     for k, r in enumerate(rs):
-        if r in TOKAMAK_Q:
-            assert 1 / iota[k] == pytest.approx(TOKAMAK_Q[r], rel=2e-4), r
+        if r in tokamak_q_dop853:  # the RK4 tracer's q against DOP853's (same turns, same fit)
+            assert 1 / iota[k] == pytest.approx(tokamak_q_dop853[r], rel=2e-4), r
         assert curve_residual(sec[:, k], iota[k], 16) < 2e-3, r  # on a closed curve
         d = np.hypot(sec[:, k, 0] - 1, sec[:, k, 1])
         assert 0.4 * r < d.min() and d.max() < r * (1 + 1e-6), r  # around the ring, bounded
@@ -791,12 +844,14 @@ def test_tokamak_closed_nested_surfaces_and_q_profile(tokamak):
 
 
 @pytest.mark.slow
-def test_stellarator_closed_surfaces_iota_and_last_surface(stellarator):
-    axis = find_axis(stellarator)
-    rs = sorted(STELL_IOTA) + [0.18]
-    sec, iota = trace(stellarator, rs, axis, turns=40, steps=24, moving_axis=True)
+def test_stellarator_closed_surfaces_iota_and_last_surface(stellarator, stell_axis, stell_iota_dop853):
+    axis = stell_axis
+    rs = [*STELL_RADII, 0.18]
+    # 48 steps per period: at 24 the tracer's ι error at r = 0.16 (near the last closed surface) is
+    # 6.5e-5 against DOP853 (1.8e-6 at 48, 2e-8 at 96: order 4), more than the 2e-5 checked here
+    sec, iota = trace(stellarator, rs, axis, turns=40, steps=48, moving_axis=True)
     for k, r in enumerate(rs[:-1]):
-        assert iota[k] == pytest.approx(STELL_IOTA[r], abs=2e-5), r
+        assert iota[k] == pytest.approx(stell_iota_dop853[r], abs=2e-5), r  # same turns, same fit
         assert curve_residual(sec[:, k], iota[k], 5) < (2e-3 if r <= 0.12 else 2e-2), r
         d = np.hypot(sec[:, k, 0] - axis[0], sec[:, k, 1] - axis[1])
         assert d.max() < 1.25 * r and d.min() > 0.5 * r, r  # bounded; elongated horizontally at φ = 0

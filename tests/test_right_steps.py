@@ -63,7 +63,7 @@ def test_missing_pair_comes_from_the_supplied_potentials(solovev):
     assert solovev.potential_methods == {"se": "from the supplied potentials", "dl": "user-supplied"}
     # not the field's own closed forms (x3/x1, log(x1**2)): the SE pair is the gauge of
     # A = (G1, G2, 0), i.e. F = A − ∇χ with χ = ∫ G2 dx2
-    F1, F3 = solovev.se_potential_exprs
+    _F1, F3 = solovev.se_potential_exprs
     chi = sp.integrate(G2.subs(x2, sp.Symbol("s")), (sp.Symbol("s"), 0, x2))
     assert sp.simplify(F3 - (0 - sp.diff(chi, x3))) == 0
     assert solovev.reconstruction_error("se", n_points=256) < 1e-12
@@ -315,7 +315,7 @@ def test_solovev_dl_dl_order2_keeps_the_flux(solovev):
     m = vpforms.compose(vpforms.scheme(solovev, "DL+DL"), 2)
     T, worst = 100.0, []
     for h in (0.1, 0.05):
-        sol = vpforms.integrate(m, x0, h, int(round(T / h)), save_every=10, progress=False)
+        sol = vpforms.integrate(m, x0, h, round(T / h), save_every=10, progress=False)
         assert sol.n_failed == 0
         xs = np.asarray(sol.xs)
         drift = np.abs(psi(*xs.transpose(2, 0, 1)) / psi(*x0.T)[:, None] - 1)
@@ -326,21 +326,32 @@ def test_solovev_dl_dl_order2_keeps_the_flux(solovev):
     assert worst[0] < 0.5 and worst[0] / worst[1] > 3.0, worst
 
 
+_LIBRARY_REF: dict = {}
+
+
+def _library_problem(name):
+    """(problem, 4 initial conditions, {h: DOP853 one-step reference}), once per module and
+    problem: the 36 one-case tests below share it (and xdist spreads them over its workers)."""
+    if name not in _LIBRARY_REF:
+        P = problems.get(name)
+        x = P.initial_conditions(4, seed=3)
+        _LIBRARY_REF[name] = P, x, {h: np.array([_flow(P.field, p, h) for p in x]) for h in (0.02, 0.01)}
+    return _LIBRARY_REF[name]
+
+
 @pytest.mark.slow
+@pytest.mark.parametrize("case", vpforms.cases(), ids=str)
 @pytest.mark.parametrize("name", ["tokamak", "stokes_sphere"])
-def test_library_problem_every_case_consistent(name):
+def test_library_problem_every_case_consistent(name, case):
     """Every one of the 36 cases of a library problem (the ones without a tests/test_methods_cases_*
     file) is built (none refused: smooth fields) and steps consistently: one-step error ratio ≈ 4
-    as h halves, status 0, at 4 initial conditions."""
-    P = problems.get(name)
-    x = P.initial_conditions(4, seed=3)
-    hs = (0.02, 0.01)
-    ref = {h: np.array([_flow(P.field, p, h) for p in x]) for h in hs}
-    for c in vpforms.cases():
-        m = vpforms.scheme(P.field, c, recover=False)
-        e = []
-        for h in hs:
-            X, s = m.step_with_status(x, h)
-            assert np.all(np.asarray(s) == 0), (c, h)
-            e.append(np.max(np.abs(np.asarray(X) - ref[h])))
-        assert 3.5 < e[0] / e[1] < 4.5, (c, e)
+    as h halves, status 0, at 4 initial conditions. One case per test (the matrix is spread over
+    the xdist workers); the DOP853 references are computed once per problem."""
+    P, x, ref = _library_problem(name)
+    m = vpforms.scheme(P.field, case, recover=False)
+    e = []
+    for h in ref:
+        X, s = m.step_with_status(x, h)
+        assert np.all(np.asarray(s) == 0), (case, h)
+        e.append(np.max(np.abs(np.asarray(X) - ref[h])))
+    assert 3.5 < e[0] / e[1] < 4.5, (case, e)
