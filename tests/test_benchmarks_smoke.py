@@ -113,3 +113,36 @@ def test_bench_field_prep_smoke(tmp_path):
 def test_fuzz_fields_smoke(tmp_path):
     text = _smoke("fuzz_fields", tmp_path)  # main() returns 1 (the assert in _smoke) on any problem
     assert "over 10 s: 0" in text
+
+
+@pytest.mark.skipif(not _NATIVE_OK, reason=f"native backend unavailable: {_NATIVE_WHY}")
+def test_bench_native_saving_smoke(tmp_path):
+    text = _smoke("bench_native_saving", tmp_path)
+    labels = [r.split("|")[2].strip() for r in text.splitlines() if r.startswith("| N = ")]
+    assert labels == ["no saves", "save_every=1 (the kernel saves)", "save_every=1, one kernel call per save"]
+
+
+@pytest.mark.slow  # builds the closed-form φ-time field and compiles one native composition (~10 s)
+@pytest.mark.skipif(not _NATIVE_OK, reason=f"native backend unavailable: {_NATIVE_WHY}")
+def test_bench_desc_solovev_smoke(tmp_path, monkeypatch):
+    monkeypatch.setenv("VPFORMS_PEER_VENVS", str(tmp_path / "no-peers"))  # never run a peer in the tests
+    text = _smoke("bench_desc_solovev", tmp_path)
+    assert "DESC not run: no DESC environment" in text
+    assert "| vpforms | SE+SE φ-time, order 6 (blanes_moan), n = 32 |" in text
+
+
+@pytest.mark.slow  # compiles five JAX methods (~15 s)
+def test_bench_gpu_runs_on_any_jax_device(tmp_path):
+    """bench_gpu.py has no smoke flag (its sizes are arguments): tiny sizes on whatever device JAX has."""
+    path = BENCHMARKS / "bench_gpu.py"
+    if not path.exists():
+        pytest.skip("benchmarks/ is not shipped with this install")
+    spec = importlib.util.spec_from_file_location("bench_gpu", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    md = tmp_path / "gpu.md"
+    assert mod.main(["--sizes", "64", "--steps", "2", "--rounds", "1", "--out", str(tmp_path / "g.json"),
+                     "--md", str(md)]) == 0
+    text = md.read_text()
+    assert "vpforms SE+SE (closed form)" in text and "hand-written JAX three shears" in text
+    assert "max |det J − 1| = " in text
