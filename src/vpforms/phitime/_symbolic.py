@@ -174,7 +174,6 @@ def symbolic_phi_time_field(A: Sequence[Any], symbols: Sequence[sp.Symbol], box:
     field.coordinates = coords.describe() + f"; K = {K} in closed form"
     field.periods = (None, coords.period, None)
     field.phi_time = coords
-    field.phi_time_K = K
     return field
 
 

@@ -103,6 +103,14 @@ def _advance_with_recovery(kernel, method, x, status, n, recovered, n_target, h,
             xs[g[at], slot[at]] = x[g[at]]
 
 
+def _start(pts):
+    """The runner's state at step 0: a C-contiguous copy of the points, statuses, step counts,
+    recovered-step counts (what :meth:`NativeKernel.advance` updates in place)."""
+    N = pts.shape[0]
+    return (np.ascontiguousarray(pts, dtype=np.float64).copy(), np.zeros(N, dtype=np.int32),
+            np.zeros(N, dtype=np.int64), np.zeros(N, dtype=np.int64))
+
+
 def run_points(method, pts, h, steps, progress_cb=None, engine="auto", save=None, how=None):
     """Advance points (N, 3) natively and return (xs (N, S, 3), status, failed_step, recovered).
 
@@ -114,10 +122,7 @@ def run_points(method, pts, h, steps, progress_cb=None, engine="auto", save=None
     save = np.ones(len(steps), bool) if save is None else np.asarray(save, bool)
     kernel = kernel_for(method, engine)
     N = pts.shape[0]
-    x = np.ascontiguousarray(pts, dtype=np.float64).copy()
-    status = np.zeros(N, dtype=np.int32)
-    n = np.zeros(N, dtype=np.int64)
-    recovered = np.zeros(N, dtype=np.int64)
+    x, status, n, recovered = _start(pts)
     slot = np.cumsum(save) - 1
     xs = np.empty((N, int(save.sum()), 3))
     if save[0]:
@@ -140,10 +145,7 @@ def run_saving(method, pts, h, n_steps, save_every, progress_cb=None, engine="au
     kernel = kernel_for(method, engine)
     steps = saved_steps(n_steps, save_every)
     N, S = pts.shape[0], steps.size
-    x = np.ascontiguousarray(pts, dtype=np.float64).copy()
-    status = np.zeros(N, dtype=np.int32)
-    n = np.zeros(N, dtype=np.int64)
-    recovered = np.zeros(N, dtype=np.int64)
+    x, status, n, recovered = _start(pts)
     xs = np.empty((N, S, 3))
     xs[:, 0] = x
     # segment ends at saved steps, ≤ `calls` of them (the last is n_steps)
