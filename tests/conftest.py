@@ -24,6 +24,21 @@ import vpforms  # noqa: F401  (float64 on)
 REPO = Path(__file__).resolve().parents[1]
 SHARED = REPO.parent / "shared"
 
+# ------------------------------------------------------------- one compilation per computation
+# XLA compilation is about half of the suite's time, and the same computations are compiled by
+# both xdist workers, again after a cache clear (below), and again by the verification tier after
+# the fast tier.  JAX's persistent compilation cache shares them on disk (same executables, so the
+# same numbers); subprocesses (the CLI tests) inherit it through the environment.  A user's own
+# JAX_COMPILATION_CACHE_DIR wins; VPFORMS_TEST_JAX_CACHE=0 turns it off.
+if os.environ.get("VPFORMS_TEST_JAX_CACHE", "1") != "0":
+    os.environ.setdefault("JAX_COMPILATION_CACHE_DIR", str(REPO / ".pytest_cache" / "jax-compilation"))
+    os.environ.setdefault("JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS", "0.5")
+    import jax
+
+    jax.config.update("jax_compilation_cache_dir", os.environ["JAX_COMPILATION_CACHE_DIR"])
+    jax.config.update("jax_persistent_cache_min_compile_time_secs",
+                      float(os.environ["JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS"]))
+
 # --------------------------------------------------------------------------------- the two tiers
 # Patterns match the whole node id as pytest prints it, with σ/Σ written as such; "*" is the only
 # wildcard ("[" and "]" are literal).  Times: one run of the whole suite on 2 shared cores.
