@@ -58,7 +58,7 @@ def test_dldl_engine_recovered_steps_are_printed_and_saved(tmp_path, capsys):
     x0 = tmp_path / "x0.npy"
     np.save(x0, np.random.default_rng(1).uniform(0.0, 2 * np.pi, (64, 3)))
     out = tmp_path / "dl.npz"
-    assert main(["run", "--method", "DL+DL", "--x0", str(x0), "--h", "0.5", "--steps", "2",
+    assert main(["run", "--method", "DL+DL", "--engine", "--x0", str(x0), "--h", "0.5", "--steps", "2",
                  "--out", str(out)]) == 0
     row = _row(capsys.readouterr().out, "recovered steps")
     with np.load(out) as z:

@@ -101,9 +101,9 @@ def test_generic_engine_methods_vmapped(cls):
 
 @pytest.fixture(scope="module")
 def dl_failures():
-    """Bare DL+DL on ABC, h = 0.5 (exact step times): points of a fixed random cloud whose run
-    fails (twist failure) at a step ≥ 2, and integrate's solution for them."""
-    m, h, n = vpforms.scheme(ABC, "DL+DL", recover=False), 0.5, 12
+    """Bare DL+DL (engine form) on ABC, h = 0.5 (exact step times): points of a fixed random cloud
+    whose run fails (twist failure) at a step ≥ 2, and integrate's solution for them."""
+    m, h, n = vpforms.scheme(ABC, "DL+DL", recover=False, fast=False), 0.5, 12
     x = np.random.default_rng(1).uniform(0.0, 2 * np.pi, (32, 3))
     ref = vpforms.integrate(m, x, h, n, save_every=1, backend="jax")
     idx = np.flatnonzero((ref.status != RESULTS.successful) & (ref.failed_step >= 2))
@@ -176,7 +176,7 @@ def test_recovering_method_same_numbers_as_integrate(dl_failures):
 def test_default_recovering_scheme_same_numbers_as_integrate(dl_failures):
     # scheme()'s own recovery (recover=True; other classes skipped to bound the compile time)
     _, h, n, pts, _, _ = dl_failures
-    rec = vpforms.scheme(ABC, "DL+DL", recover_classes=False, recover_substeps=1)
+    rec = vpforms.scheme(ABC, "DL+DL", recover_classes=False, recover_substeps=1, fast=False)
     ref = vpforms.integrate(rec, pts[0], h, n, save_every=1, backend="jax")
     assert ref.ok and ref.recovered > 0
     sol = _solve(rec, pts[0], h, n)

@@ -35,7 +35,8 @@ def prob():
 
 @pytest.fixture(scope="module")
 def dldl(prob):
-    return V.scheme(prob.field, "DL+DL")
+    # the engine form: a recovering method on the JAX backend (the default stage form runs natively)
+    return V.scheme(prob.field, "DL+DL", fast=False)
 
 
 @pytest.fixture(scope="module")
@@ -302,7 +303,8 @@ def test_cli_zarr_run_resume_and_refusal(tmp_path, capsys, monkeypatch):
     assert "\n" not in err
     assert main(base[:-1] + [out, "--backend", "jax"]) == 2  # the store was written natively
     assert "(backend: store 'native', this run 'jax')" in capsys.readouterr().err
-    assert main(base[:-1] + [str(tmp_path / "dl.zarr"), "--method", "DL+DL", "--backend", "native"]) == 2
+    assert main(base[:-1] + [str(tmp_path / "dl.zarr"), "--method", "DL+DL", "--engine",
+                                 "--backend", "native"]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("vpforms: error: native backend cannot run") and "\n" not in err
 

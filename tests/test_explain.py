@@ -12,13 +12,13 @@ import vpforms
 from vpforms import RESULTS, Case, Field, problems
 from vpforms.diagnostics import explain_failures, failure_breakdown, twist_map
 
-H = 0.5  # DL+DL's twist fails on ABC at a good fraction of points at this step
+H = 0.5  # the DL+DL engine form's twist fails on ABC at a good fraction of points at this step
 
 
 @pytest.fixture(scope="module")
 def abc_dl():
     f = problems.get("abc").field
-    bare = vpforms.scheme(f, "DL+DL", recover=False)
+    bare = vpforms.scheme(f, "DL+DL", recover=False, fast=False)  # the engine form (not the default)
     x = np.random.default_rng(3).uniform(0.0, 2 * np.pi, (48, 3))
     return f, bare, x
 
@@ -41,8 +41,12 @@ def test_twist_map_fractions_are_the_step_status_counts(abc_dl):
     assert np.any(st == RESULTS.twist_failure), "the test needs twist failures"
     assert own.twist == pytest.approx(np.mean(st != RESULTS.twist_failure), abs=0)
     assert own.step_ok == pytest.approx(np.mean(st == RESULTS.successful), abs=0)
-    # the DL+DL row is the same representative case: the same counts
-    assert tm.row("DL+DL").counts == own.counts == {int(c): int(np.sum(st == c)) for c in np.unique(st)}
+    assert own.counts == {int(c): int(np.sum(st == c)) for c in np.unique(st)}
+    # the DL+DL row is the class's default, the same map by its θ-stages (issue #19): counted from
+    # its own bare step, and it fails at none of the points where the engine form (this method) does
+    dl = _codes(vpforms.scheme(f, "DL+DL", recover=False), x, H)
+    assert tm.row("DL+DL").counts == {int(c): int(np.sum(dl == c)) for c in np.unique(dl)}
+    assert not np.any((dl != RESULTS.successful) & (st == RESULTS.twist_failure))
     # SE+SE counted independently from its own bare step
     se = _codes(vpforms.scheme(f, "SE+SE", recover=False), x, H)
     assert tm.row("SE+SE").twist == np.mean(se != RESULTS.twist_failure)
@@ -170,18 +174,20 @@ def test_summary_breakdown_and_hint_on_failing_run(abc_dl):
 
 
 def test_fast_hint_applies_to_generic_dl_schemes_only():
-    """The ``--fast`` hint rebuilds the method from its spec with fast=True on every DL-class scheme
-    that the generic engine evaluates; other classes, the printed variant and fast schemes have none."""
+    """The stage-form hint rebuilds the method from its spec with fast=True on every DL-class scheme
+    built in the engine form (fast=False); other classes, the printed variant and the default
+    (stage form) DL schemes have none."""
     from vpforms.diagnostics.failures import _with_fast
 
     f = problems.get("abc").field
-    dl = vpforms.compose(vpforms.scheme(f, "DL+DL", theta=0.5, recover=False), 4)
+    dl = vpforms.compose(vpforms.scheme(f, "DL+DL", theta=0.5, recover=False, fast=False), 4)
     spec = _with_fast(dl.spec())
     assert spec["kind"] == "compose" and spec["base"]["options"] == {"theta": 0.5, "fast": True, "recover": False}
     rebuilt = vpforms.method_from_spec(spec)
     assert rebuilt.order == 4 and rebuilt.base.base.fast and rebuilt.base.base.theta == 0.5  # suzuki4[Ψ*∘Ψ]
     assert _with_fast(vpforms.scheme(f, Case((2, 3, 1), (1, 3, 2)), recover=False).spec()) is None  # SE+SE
-    assert _with_fast(vpforms.scheme(f, "SE+DL", recover=False).spec())["options"]["fast"] is True
+    assert _with_fast(vpforms.scheme(f, "SE+DL", recover=False, fast=False).spec())["options"]["fast"] is True
+    assert _with_fast(vpforms.scheme(f, "SE+DL", recover=False).spec()) is None  # the default: stages
     assert _with_fast(vpforms.scheme(f, "DL+DL", recover=False, printed=True).spec()) is None
     assert _with_fast(vpforms.scheme(f, "DL+DL", recover=False, fast=True).spec()) is None
 
@@ -194,7 +200,7 @@ def test_cli_run_explains_failures(tmp_path, capsys):
     from vpforms.cli import main
 
     out = tmp_path / "r.npz"
-    argv = ["run", "--problem", "abc", "--method", "DL+DL", "--no-recover", "--h", str(H), "--steps", "12",
+    argv = ["run", "--problem", "abc", "--method", "DL+DL", "--engine", "--no-recover", "--h", str(H), "--steps", "12",
             "--particles", "24", "--backend", "jax", "--out", str(out)]
     assert main(argv) == 0
     text = capsys.readouterr().out
@@ -218,7 +224,7 @@ def test_cli_run_explains_failures(tmp_path, capsys):
 def test_cli_poincare_explains_failed_orbits(tmp_path, capsys):
     from vpforms.cli import main
 
-    argv = ["poincare", "--problem", "abc", "--method", "DL+DL", "--no-recover", "--order", "1",
+    argv = ["poincare", "--problem", "abc", "--method", "DL+DL", "--engine", "--no-recover", "--order", "1",
             "--h", str(H), "--steps", "12", "--particles", "12", "--png", str(tmp_path / "p.png"),
             "--csv", str(tmp_path / "p.csv")]
     assert main(argv) == 0
@@ -226,7 +232,7 @@ def test_cli_poincare_explains_failed_orbits(tmp_path, capsys):
     # the same orbits with integrate: the failed ones and their steps
     prob = problems.get("abc")
     x0 = prob.initial_conditions(12, seed=0)
-    sol = vpforms.integrate(vpforms.scheme(prob.field, "DL+DL", recover=False), x0, H, 12, progress=False,
+    sol = vpforms.integrate(vpforms.scheme(prob.field, "DL+DL", recover=False, fast=False), x0, H, 12, progress=False,
                             backend="jax")
     assert sol.n_failed > 0
     assert "failed orbits:" in text

@@ -171,7 +171,7 @@ def test_unsupported_methods_fall_back_or_raise():
     if g is not None:
         name, why = select_backend(vp.RK4(g), "auto")
         assert name == "jax" and "Field.from_sympy" in why
-    m = vp.scheme(f, "DL+DL")  # the engine form (fast=False)
+    m = vp.scheme(f, "DL+DL", fast=False)  # the engine form (the default is the θ-stages)
     assert select_backend(m, "auto")[0] == "jax"
     with pytest.raises(NativeUnavailableError, match="engine form"):
         select_backend(m, "native")
@@ -221,11 +221,12 @@ def test_cli_run_says_which_backend_ran(tmp_path, capsys):
     out = tmp_path / "r.npz"
     assert main(["run", "--steps", "5", "--particles", "3", "--backend", "native", "--out", str(out)]) == 0
     assert "native" in capsys.readouterr().out
-    assert main(["run", "--steps", "5", "--method", "DL+DL", "--backend", "native", "--out", str(out)]) == 2
+    assert main(["run", "--steps", "5", "--method", "DL+DL", "--engine", "--backend", "native",
+                 "--out", str(out)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("vpforms: error:") and "engine form" in err[0]
-    assert "--fast" in err[0]  # what to do instead; and that runs natively:
-    assert main(["run", "--steps", "5", "--particles", "3", "--method", "DL+DL", "--fast",
+    assert "--engine" in err[0]  # what to do instead (leave it out); the default runs natively:
+    assert main(["run", "--steps", "5", "--particles", "3", "--method", "DL+DL",
                  "--backend", "native", "--out", str(out)]) == 0
     assert "native" in capsys.readouterr().out
 
@@ -397,10 +398,11 @@ def test_recovery_of_a_relabelled_case_agrees_with_jax(fields):
 @pytest.mark.parametrize("cls", ["DL+DL", "SE+DL"])
 def test_dl_engine_form_is_left_on_jax_and_says_why(cls):
     """fast=False solves the generating map of L_d (an inner Newton for p̄ inside a potential):
-    "auto" runs it on JAX and "native" says why, pointing at fast=True."""
-    m = vp.scheme(P.get("lotka_volterra").field, cls, recover=False)
+    "auto" runs it on JAX and "native" says why, pointing at the default stage form."""
+    m = vp.scheme(P.get("lotka_volterra").field, cls, recover=False, fast=False)
     name, why = select_backend(m, "auto")
-    assert name == "jax" and "discrete Lagrangians" in why and "fast=True" in why
+    assert name == "jax" and "discrete Lagrangians" in why and "stage form" in why
+    assert select_backend(vp.scheme(P.get("lotka_volterra").field, cls, recover=False), "auto")[0] == "native"
     with pytest.raises(NativeUnavailableError, match="inner Newton"):
         select_backend(m, "native")
     assert select_backend(_scheme(P.get("lotka_volterra").field, cls), "auto")[0] == "native"

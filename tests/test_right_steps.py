@@ -185,7 +185,7 @@ def test_every_case_steps_consistently_or_is_refused(solovev):
 
 # -- the guard --------------------------------------------------------------------------------------
 def test_recovery_never_takes_a_refused_case(solovev):
-    m = vpforms.compose(vpforms.scheme(solovev, "DL+DL"), 2)
+    m = vpforms.compose(vpforms.scheme(solovev, "DL+DL", fast=False), 2)
     rec = m  # a recovering composition: every alternative is composed, refused ones never built
     refused = {str(c) for c, _ in rec.refused}
     assert refused  # the relabellings whose pairs are singular inside the box
@@ -289,7 +289,7 @@ def test_recovered_steps_agree_with_rk4(solovev):
     to order 2, every recovered step is within that bound of the RK4 step."""
     from vpforms._guard import KAPPA_ALT, rk4_points
 
-    m = vpforms.compose(vpforms.scheme(solovev, "DL+DL"), 2)
+    m = vpforms.compose(vpforms.scheme(solovev, "DL+DL", fast=False), 2)
     x = np.array([[1.0857142857142856, 0.0, 0.0], [1.2285714285714286, 0.0, 0.0]])
     h, seen = 0.05, 0
     for _ in range(300):
@@ -312,7 +312,7 @@ def test_solovev_dl_dl_order2_keeps_the_flux(solovev):
     psi = sp.lambdify(SYMBOLS, PSI, "numpy")
     rho = np.linspace(0.05, 0.3, 8)
     x0 = np.stack([1 + rho, np.zeros_like(rho), np.zeros_like(rho)], axis=1)
-    m = vpforms.compose(vpforms.scheme(solovev, "DL+DL"), 2)
+    m = vpforms.compose(vpforms.scheme(solovev, "DL+DL", fast=False), 2)
     T, worst = 100.0, []
     for h in (0.1, 0.05):
         sol = vpforms.integrate(m, x0, h, round(T / h), save_every=10, progress=False)

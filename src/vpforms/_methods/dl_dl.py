@@ -27,14 +27,15 @@ __all__ = ["DLDL"]
 
 class DLDL(DLPredictor, GeneratingMethod):
     """DL+DL (eq:case3, corrected): order 1, not symmetric; ``theta`` ∈ {0, ½}; ``printed=True``
-    gives the paper's signs (volume preserving, not consistent); ``fast=True`` evaluates the two
-    θ-stages directly (see :class:`vpforms._methods.se_dl.DLPredictor`)."""
+    gives the paper's signs (volume preserving, not consistent). The step is evaluated as its two
+    θ-stages (default, ``fast=True``; see :class:`vpforms._methods.se_dl.DLPredictor`) or, with
+    ``fast=False``, by the engine's solve of the generating map (the reference form)."""
 
     splitting = "dl"
     name = "DL+DL"
 
     def __init__(self, field: Any, *, theta: float = 0.0, printed: bool = False,
-                 fast: bool = False, newton: dict | None = None):
+                 fast: bool | None = None, newton: dict | None = None):
         self.field = field
         self.case = REPRESENTATIVES["DL+DL"]
         self.order, self.symmetric = 1, False

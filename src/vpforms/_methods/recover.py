@@ -287,7 +287,7 @@ def recovering_scheme(scheme, field, case, options, substeps, classes):
             return None
 
     first = []
-    if bare.cls in ("SE+DL", "DL+DL") and not options.get("fast") and not options.get("printed"):
+    if bare.cls in ("SE+DL", "DL+DL") and options.get("fast") is False and not options.get("printed"):
         # the engine form fails (or loses digits) at the fold of a DL stage where the nested
         # θ-stages of the SAME map do not: that map first, so a recovered step changes nothing but
         # the evaluation (switching methods would cost the composition's order and invariants)

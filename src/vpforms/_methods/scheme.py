@@ -52,8 +52,10 @@ def representative_method(field: Any, cls: str, **options) -> Method:
     Options: ``theta`` (DL classes), ``printed`` (SE+DL, DL+DL, S1), ``variant`` (S1),
     ``recipe`` ("generating" | "correction" for S1/S2; default: generating for linear fields,
     correction otherwise), ``integral``/``quadrature_n`` (correction maps),
-    ``newton`` (Newton controls). ``fast`` (SE+SE, SE+DL, DL+DL) evaluates the step directly
-    (shears / θ-stages) instead of through the engine — the same map, tested equal to it.
+    ``newton`` (Newton controls). ``fast`` evaluates the step directly instead of through the
+    engine — the same map, tested equal to it: SE+SE's closed-form shears (``fast=True``; default
+    False), the DL classes' nested θ-stages (default; ``fast=False`` asks for the engine form, the
+    reference, which fails at the fold of a stage).
     """
     cls = class_name(cls)
     newton = options.pop("newton", None)
@@ -65,7 +67,7 @@ def representative_method(field: Any, cls: str, **options) -> Method:
         _only(options, cls, ("theta", "printed", "fast"))
         M = SEDL if cls == "SE+DL" else DLDL
         return M(field, theta=options.get("theta", 0.0), printed=options.get("printed", False),
-                 fast=options.get("fast", False), newton=newton)
+                 fast=options.get("fast"), newton=newton)
     # S1, S2
     _only(options, cls, ("recipe", "variant", "printed", "integral", "quadrature_n"))
     recipe = options.get("recipe")

@@ -196,24 +196,25 @@ _METHODS: dict = {}
 
 
 def _method(field, cls: str = "SE+SE", case=None, order: int = 1, fast: bool = False, theta=None,
-            recover: bool = True, composition: str | None = None):
+            recover: bool = True, composition: str | None = None, engine: bool = False):
     """A vpforms method (class representative or explicit case, composed to ``order``) or RK4.
 
     Methods are cached per (field, options) so that repeated in-process calls (tests, the demo)
     reuse their compiled kernels.
     """
-    key = (id(field), str(cls).strip().upper(), case, order, fast, theta, recover, composition)
+    key = (id(field), str(cls).strip().upper(), case, order, fast, theta, recover, composition, engine)
     hit = _METHODS.get(key)
     if hit is not None and hit[0] is field:
         return hit[1]
-    m = _make_method(field, cls, case, order, fast, theta, recover, composition)
+    m = _make_method(field, cls, case, order, fast, theta, recover, composition, engine)
     _METHODS[key] = (field, m)
     return m
 
 
-def _make_method(field, cls, case, order, fast, theta, recover=True, composition=None):
+def _make_method(field, cls, case, order, fast, theta, recover=True, composition=None, engine=False):
     if str(cls).strip().lower() == "rk4":
         bad = [name for name, on in (("--case", case is not None), ("--order", order != 1), ("--fast", fast),
+                                     ("--engine", engine),
                                      ("--theta", theta is not None), ("--no-recover", not recover),
                                      ("--composition", composition is not None)) if on]
         if bad:
@@ -221,8 +222,12 @@ def _make_method(field, cls, case, order, fast, theta, recover=True, composition
                            f"{'does' if len(bad) == 1 else 'do'} not apply")
         return RK4(field)
     opts = {}
+    if fast and engine:
+        raise CLIError("--fast and --engine ask for two evaluations of the same map: choose one")
     if fast:
         opts["fast"] = True
+    if engine:  # the DL classes' engine form (their default is the nested θ-stages)
+        opts["fast"] = False
     if theta is not None:
         opts["theta"] = theta
     if not recover:  # issue #12: --no-recover
@@ -248,7 +253,8 @@ def _method_from_args(args, field):
     if getattr(args, "case", None):
         case = Case(_parse_perm(args.case[0]), _parse_perm(args.case[1]))
     return _method(field, args.method, case, args.order, args.fast, args.theta,
-                   not getattr(args, "no_recover", False), getattr(args, "composition", None))
+                   not getattr(args, "no_recover", False), getattr(args, "composition", None),
+                   getattr(args, "engine", False))
 
 
 def _parse_method_spec(spec: str) -> tuple[str, int]:
@@ -316,8 +322,11 @@ def _add_method_args(p, default_order=1, backend=False):
                         "--order 6: kahan_li (default), blanes_moan, yoshida, triple_jump; --order 8: "
                         "kahan_li (default), suzuki_umeno, yoshida, triple_jump")
     p.add_argument("--fast", action="store_true",
-                   help="direct evaluation of the same map: closed-form shears (SE+SE) or the nested "
-                        "θ-stages (SE+DL, DL+DL: no fold failures of the discrete Lagrangian)")
+                   help="SE+SE: the closed-form shears, a direct evaluation of the same map (the DL "
+                        "classes always run as their nested θ-stages unless --engine)")
+    p.add_argument("--engine", action="store_true",
+                   help="SE+DL, DL+DL: solve the discrete-Lagrangian generating map by the engine (the "
+                        "reference form; it fails at the fold of a stage, and runs on JAX only)")
     p.add_argument("--theta", type=_theta, default=None,
                    help="θ of the discrete Lagrangian (DL classes): 0 (default) or 0.5")
     p.add_argument("--no-recover", action="store_true",

@@ -10,7 +10,7 @@
   succeeds with the same (bare) method, and the class whose twist condition holds — and whose
   step succeeds — at most of those states (:func:`vpforms.diagnostics.twist_map`); for a DL
   class (SE+DL, DL+DL) evaluated through the generic engine, the fraction of those steps that the
-  nested θ-stage evaluation of the *same* map (``fast=True``, CLI ``--fast``) takes — near the fold
+  nested θ-stage evaluation of the *same* map (``fast=True``, the default; the engine form is CLI ``--engine``) takes — near the fold
   ∂²H/∂p² = 0 the engine's discrete Lagrangian degenerates, the nested stages do not; and, for a
   method run with recovery off, that recovery would retry those steps.
 """
@@ -193,7 +193,8 @@ def _with_fast(spec):
     if spec.get("kind") == "scheme":
         case, opts = spec["case"], dict(spec.get("options", {}))
         cls = class_name(case) if isinstance(case, str) else Case(*(tuple(c) for c in case)).cls
-        if cls not in ("SE+DL", "DL+DL") or opts.get("fast") or opts.get("printed"):
+        # the stage form is the default (fast absent or True): only an explicit engine form counts
+        if cls not in ("SE+DL", "DL+DL") or opts.get("fast", True) is not False or opts.get("printed"):
             return None
         return {**spec, "options": {**opts, "fast": True, "recover": False}}
     if "base" in spec:
@@ -240,7 +241,7 @@ def _overflow_hint(n: int, only: bool, h, smaller, cli: bool) -> str:
 def _hint_text(method, bare, recovery_off, h, smaller, smaller_ok, tm, cli, fast_ok=None) -> str:
     parts = []
     if fast_ok:  # first: the same map, only evaluated without the degenerate discrete Lagrangian
-        parts.append(("--fast" if cli else "fast=True") + " (the nested θ-stage evaluation of the same "
+        parts.append(("leaving out --engine" if cli else "the default fast=True") + " (the nested θ-stage evaluation of the same "
                      f"DL map, well conditioned at the fold ∂²H/∂p² = 0) takes {_pct(fast_ok)} of the "
                      "failed steps")
     if recovery_off:

@@ -203,7 +203,8 @@ def class_stage(m: Any) -> MapStage | str:
     if isinstance(m, (DLDL, SEDL)) and not m.fast:
         return (f"{name}: the engine form (fast=False) solves the generating map of discrete "
                 "Lagrangians L_d, defined through an inner Newton solve for p̄ (no SymPy "
-                "expression); fast=True (CLI --fast), the same map as nested θ-stages, is generated natively")
+                "expression); the default stage form (not --engine), the same map as nested θ-stages, "
+                "is generated natively")
     field = getattr(m, "field", None)
     why = symbolic_reason(field)
     if why:
