@@ -47,7 +47,7 @@ import numpy as np
 from . import _integrate
 from . import io as _io
 from ._integrate import _check_run
-from ._integrate import saved_steps as _global_steps
+from ._solution import saved_steps as _global_steps
 from ._spec import method_from_spec
 from .backends import select_backend
 

@@ -13,8 +13,9 @@ from jax import lax
 
 from .. import _config  # noqa: F401
 from .._errors import RESULTS
-from .._integrate import _check_run, _StepFn, auto_chunk_size, describe
+from .._integrate import _check_run, describe
 from .._recovery import bare_first
+from ..backends.jax_runner import _StepFn, auto_chunk_size
 from ._common import _chunks, _pad
 
 __all__ = ["LogDet", "log_det"]

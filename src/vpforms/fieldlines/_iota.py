@@ -30,8 +30,10 @@ import numpy as np
 from jax import lax
 
 from .._errors import RESULTS
-from .._integrate import _Bar, _check_run, _StepFn, auto_chunk_size, integrate
+from .._integrate import _check_run, integrate
+from .._progress import _Bar
 from .._recovery import bare_first
+from ..backends.jax_runner import _StepFn, auto_chunk_size
 from ..diagnostics._common import _chunks, _pad
 from ..diagnostics._surfaces import wrap_angle
 from ._geometry import cylindrical, is_toroidal

@@ -23,8 +23,10 @@ from jax import lax
 
 from .. import _config  # noqa: F401  (float64 on)
 from .._errors import RESULTS
-from .._integrate import _Bar, _check_run, _StepFn, auto_chunk_size, describe
+from .._integrate import _check_run, describe
+from .._progress import _Bar
 from .._recovery import bare_first
+from ..backends.jax_runner import _StepFn, auto_chunk_size
 from ..diagnostics._common import _chunks, _pad
 from ..diagnostics._locate import illinois
 from ._geometry import cylindrical, is_toroidal, speed
