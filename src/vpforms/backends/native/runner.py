@@ -22,7 +22,7 @@ from ..._progress import _Bar
 from ..._recovery import bare_method, count_how, recover_points
 from ..._solution import make_solution, saved_steps
 from .build import build
-from .codegen import CDEF, kernel_source
+from .codegen import CDEF, kernel_parts
 
 __all__ = ["NativeKernel", "integrate_native", "run_points", "run_saving"]
 
@@ -31,11 +31,13 @@ CALLS = 20
 
 
 class NativeKernel:
-    """The compiled ``vp_run`` of one method (built on first use, cached on disk)."""
+    """The compiled ``vp_run`` of one method (built on first use, cached on disk) and the field's
+    run-time data ``fd`` (a spline's knots and coefficients; None without: NULL is passed), so
+    that a new grid of the same structure reuses the compiled kernel."""
 
     def __init__(self, method: Any, engine: str = "auto"):
         self.method = method
-        self.source = kernel_source(method, engine)
+        self.source, self.data = kernel_parts(method, engine)
         self.lib = build(self.source, CDEF)
         from cffi import FFI
 
@@ -60,6 +62,7 @@ class NativeKernel:
             f.cast("int32_t *", status.ctypes.data),
             f.cast("int64_t *", n.ctypes.data),
             int(n_target), float(h), int(save_every), int(n_total), out, int(n_saves),
+            f.NULL if self.data is None else f.cast("double *", self.data.ctypes.data),
         )
 
 

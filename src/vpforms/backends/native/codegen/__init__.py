@@ -10,7 +10,7 @@
   form where the equation is affine in its unknown), RK4, and the block/SIMD/OpenMP kernel.
 """
 
-from .emit import BLOCK, CDEF, kernel_source
+from .emit import BLOCK, CDEF, kernel_parts, kernel_source
 from .plan import unsupported_reason
 
-__all__ = ["BLOCK", "CDEF", "kernel_source", "unsupported_reason"]
+__all__ = ["BLOCK", "CDEF", "kernel_parts", "kernel_source", "unsupported_reason"]

@@ -41,6 +41,7 @@ from ...._methods._base import Method
 from ...._quadrature import GL_T, GLSum, _nodes_weights
 from ...._solution import describe
 from ....symbolic import _symbols as G
+from . import splines
 from .cprinter import printer as _printer
 from .plan import plan
 from .potentials import (
@@ -51,15 +52,17 @@ from .potentials import (
     MapStage,
     RK4Stage,
     ThetaStage,
+    field_exprs,
+    field_reason,
 )
 
-__all__ = ["BLOCK", "CDEF", "kernel_source"]
+__all__ = ["BLOCK", "CDEF", "kernel_parts", "kernel_source"]
 
 BLOCK = 64
 #: Newton iterations of the vectorised pass (see :func:`_newton_fixed_c`); only speed depends on it
 FIXED_ITERS = 5
 CDEF = ("void vp_run(int64_t N, double *x, int32_t *status, int64_t *n, int64_t n_target, double h, "
-        "int64_t save_every, int64_t n_total, double *xs, int64_t n_saves);")
+        "int64_t save_every, int64_t n_total, double *xs, int64_t n_saves, const double *fd);")
 
 
 #: glibc declares libmvec's vector variants only under __FAST_MATH__, which -fno-finite-math-only
@@ -78,6 +81,8 @@ def _assign(targets: list[str], exprs: list[Any], subs: dict, tag: str) -> list[
     Gauss–Legendre sums in them first, by :func:`_gl_loops`."""
     exprs = [sp.sympify(e).xreplace(subs) for e in exprs]
     lines, exprs = _gl_loops(exprs, tag)
+    more, exprs = splines.spline_calls(exprs, tag, _printer)  # spline atoms: data read at run time
+    lines += more
     syms = sp.numbered_symbols(f"{tag}_")
     reps, red = sp.cse(exprs, symbols=syms)
     lines += [f"double {s} = {_printer.doprint(e)};" for s, e in reps]
@@ -367,8 +372,8 @@ def _dl_body(st: DLStage, newton: bool, fixed: bool) -> list[str]:
 
 
 def _rk4_body(field) -> list[str]:
-    s = field.symbols
-    a = [sp.sympify(e) for e in field.exprs]
+    s = G.x
+    a = list(field_exprs(field))
     lines = []
     prev = None
     for c, name in [(0, "k1"), (0.5, "k2"), (0.5, "k3"), (1.0, "k4")]:
@@ -389,7 +394,8 @@ def _stage_fn(name: str, body: list[str], fixed: bool) -> str:
     step = "\n    ".join(body)
     ret, init = ("double", "double ok = 1.0;") if fixed else ("int", "int code = 0;")
     return f"""static inline _VP_INLINE {ret} {name}(double x1, double x2, double x3, double h,
-                           double *restrict o1, double *restrict o2, double *restrict o3) {{
+                           double *restrict o1, double *restrict o2, double *restrict o3,
+                           const double *restrict fd) {{
     double X1, X2, X3; {init}
     {step}
     *o1 = X1; *o2 = X2; *o3 = X3;
@@ -409,13 +415,25 @@ def _stage_body(stage: Any, newton: bool, fixed: bool) -> list[str]:
 
 
 def _guard_c(field: Any, kappa: float | None, fixed: bool) -> tuple[list[str], list[str]]:
-    """The consistency guard of :mod:`vpforms._guard` in C: (lines at the step's start: the
-    predictor E = x + h a(x); lines at its end: the test on the result y). Empty without a guard."""
-    if kappa is None or field is None or getattr(field, "exprs", None) is None:
+    """The consistency guard of :mod:`vpforms._guard` in C, and the domain test of a gridded
+    field (``Method._accept``: a failed step whose Euler point is off the grid or not finite
+    ``left_domain``): (lines at the step's start: the predictor E = x + h a(x); lines at its end:
+    the tests on the result y). Empty without either."""
+    box = splines.domain_test(field) if field is not None else []
+    if field is None or (kappa is None and not box) or field_reason(field) is not None:
         return [], []
-    xs = {s: _C[f"x{i + 1}"] for i, s in enumerate(field.symbols)}
-    pre = _assign([f"gd_a{i + 1}" for i in range(3)], list(field.exprs), xs, "gd")
+    xs = {G.x[i]: _C[f"x{i + 1}"] for i in range(3)}
+    pre = _assign([f"gd_a{i + 1}" for i in range(3)], list(field_exprs(field)), xs, "gd")
     pre += [f"double gd_e{i} = x{i} + h*gd_a{i};" for i in (1, 2, 3)]
+    out = []
+    if box and not fixed:  # a success is never changed by it: the vectorised pass needs nothing
+        tests = " && ".join(f"gd_e{a + 1} >= {_data(lo)} && gd_e{a + 1} <= {_data(hi)}"
+                            for a, lo, hi in box)
+        out = [f"int gd_in = _VP_FINITE(gd_e1, gd_e2, gd_e3) && {tests};",
+               f"code = (code == 0 && !_VP_FINITE(y1, y2, y3)) ? {RESULTS.nonfinite} : code;",
+               f"code = (code != 0 && !gd_in) ? {RESULTS.left_domain} : code;"]
+    if kappa is None:
+        return pre, out
 
     def mx(a, b, c):  # max without fmax (which does not vectorise: NaN semantics)
         return f"({a} > {b} ? ({a} > {c} ? {a} : {c}) : ({b} > {c} ? {b} : {c}))"
@@ -433,14 +451,20 @@ def _guard_c(field: Any, kappa: float | None, fixed: bool) -> tuple[list[str], l
     post += (["ok = ok * ((gd_def <= gd_bound) ? 1.0 : 0.0);"] if fixed else
              ["int gd_bad = !(gd_def <= gd_bound) & _VP_FINITE(y1, y2, y3);",
               f"code = (code == 0 && gd_bad) ? {RESULTS.inconsistent} : code;"])
-    return pre, post
+    return pre, post + out
+
+
+def _data(ref) -> str:
+    """A data scalar (:class:`.splines.DataRef`) as C: its read of the data array."""
+    return _printer.doprint(splines.e_sub(ref))
 
 
 def _step_fn(name: str, calls: list[str], fixed: bool, guard=([], [])) -> str:
     body = "\n    ".join([*guard[0], *calls, *guard[1]])
     init = "double ok = 1.0;" if fixed else "int code = 0, c;"
     return f"""static inline _VP_INLINE {"double" if fixed else "int"} {name}(double x1, double x2, double x3, double h,
-                          double *restrict o1, double *restrict o2, double *restrict o3) {{
+                          double *restrict o1, double *restrict o2, double *restrict o3,
+                          const double *restrict fd) {{
     double y1 = x1, y2 = x2, y3 = x3; {init}
     {body}
     *o1 = y1; *o2 = y2; *o3 = y3;
@@ -451,7 +475,8 @@ def _step_fn(name: str, calls: list[str], fixed: bool, guard=([], [])) -> str:
 
 #: the vectorised pass of a kernel on quadrature potentials: it decides no lane (see kernel_source)
 _FAST_NONE = """static inline _VP_INLINE double vp_step_fast(double x1, double x2, double x3, double h,
-                          double *restrict o1, double *restrict o2, double *restrict o3) {
+                          double *restrict o1, double *restrict o2, double *restrict o3,
+                          const double *restrict fd) {
     *o1 = x1; *o2 = x2; *o3 = x3;
     return 0.0;
 }
@@ -459,7 +484,14 @@ _FAST_NONE = """static inline _VP_INLINE double vp_step_fast(double x1, double x
 
 
 def kernel_source(method: Any, engine: str = "auto") -> str:
-    """The complete C source of ``vp_run`` for ``method`` (see :data:`CDEF`).
+    """The complete C source of ``vp_run`` for ``method`` (see :data:`CDEF`); see
+    :func:`kernel_parts`."""
+    return kernel_parts(method, engine)[0]
+
+
+def kernel_parts(method: Any, engine: str = "auto") -> tuple[str, Any]:
+    """(the C source of ``vp_run`` for ``method``, its run-time data ``fd``: the flat array of
+    :func:`.splines.field_data`, or None for a field without data).
 
     ``engine="newton"`` iterates Newton on every solve, also where the equation is affine in its
     unknown (the same map; used to measure the engine against the closed form).
@@ -470,6 +502,12 @@ def kernel_source(method: Any, engine: str = "auto") -> str:
     solves of :func:`vpforms._newton.newton_scalar`), which gives it its exact status."""
     if engine not in ("auto", "newton"):
         raise ValueError(f"engine must be 'auto' or 'newton', got {engine!r}")
+    with splines.collecting() as refs:
+        source = _kernel(method, engine)
+    return source, splines.field_data(refs)
+
+
+def _kernel(method: Any, engine: str) -> str:
     stages = plan(method)
     if isinstance(stages, str):
         raise ValueError(stages)  # noqa: TRY004 - a method that cannot be generated
@@ -478,10 +516,11 @@ def kernel_source(method: Any, engine: str = "auto") -> str:
     kappa = getattr(method, "guard_kappa", None) if isinstance(method, Method) else None
     fns, steps = {}, {}
     for kind, fixed in (("exact", False), ("fast", True)):
-        if fixed and "VP_GL_" in fns["exact"]:
+        if fixed and ("VP_GL_" in fns["exact"] or "vp_cell(" in fns["exact"] + steps["exact"]):
             # quadrature potentials: gcc vectorises the loops over the nodes, not the lane loop
             # around them, so masked fixed iterations would only add work — every lane takes the
-            # exact early-exit step (measured 1.4× faster than FIXED_ITERS = 5 on ∇×(sin x₂x₃, …))
+            # exact early-exit step (measured 1.4× faster than FIXED_ITERS = 5 on ∇×(sin x₂x₃, …));
+            # splines: gathers at data-dependent cells and a binary search, not vectorised either
             fns[kind], steps[kind] = "", _FAST_NONE
             continue
         names: dict[str, str] = {}  # body → function name (stages with the same map share one)
@@ -489,7 +528,7 @@ def kernel_source(method: Any, engine: str = "auto") -> str:
         for stage, coef in stages:
             body = "\n".join(_stage_body(stage, engine == "newton", fixed))
             fn = names.setdefault(body, f"vp_{kind}{len(names)}")
-            call = f"{fn}(y1, y2, y3, {coef!r} * h, &y1, &y2, &y3);"
+            call = f"{fn}(y1, y2, y3, {coef!r} * h, &y1, &y2, &y3, fd);"
             calls.append(f"ok *= {call}" if fixed else f"c = {call} code = code ? code : c;")
         fns[kind] = "".join(_stage_fn(fn, body.split("\n"), fixed) for body, fn in names.items())
         steps[kind] = _step_fn(f"vp_step_{kind}", calls, fixed, _guard_c(field, kappa, fixed))
@@ -507,6 +546,7 @@ def kernel_source(method: Any, engine: str = "auto") -> str:
 #define _VP_INLINE __attribute__((always_inline))
 #define _VP_FINITE(a, b, c) ((fabs(a) <= DBL_MAX) & (fabs(b) <= DBL_MAX) & (fabs(c) <= DBL_MAX))
 {_SIMD_DECLS}
+{splines.C_HELPERS if "vp_cell(" in fns + steps else ""}
 {tables}
 {fns}
 /* one step of {describe(method)}: {len(stages)} stage(s), generated from SymPy */
@@ -521,7 +561,7 @@ static inline int64_t vp_slot(int64_t c, int64_t se, int64_t n_total, int64_t n_
     return c == n_total ? n_saves : -1;
 }}
 void vp_run(int64_t N, double *x, int32_t *status, int64_t *n, int64_t n_target, double h,
-            int64_t save_every, int64_t n_total, double *xs, int64_t n_saves) {{
+            int64_t save_every, int64_t n_total, double *xs, int64_t n_saves, const double *fd) {{
     int64_t nb = (N + B - 1) / B;
     #pragma omp parallel for schedule(dynamic, 1)
     for (int64_t b = 0; b < nb; b++) {{
@@ -545,7 +585,7 @@ void vp_run(int64_t N, double *x, int32_t *status, int64_t *n, int64_t n_target,
             #pragma omp simd
             for (int i = 0; i < B; i++) {{  /* vectorised: the lanes the fast pass decides */
                 double X1, X2, X3;
-                double good = vp_step_fast(a1[i], a2[i], a3[i], h, &X1, &X2, &X3);
+                double good = vp_step_fast(a1[i], a2[i], a3[i], h, &X1, &X2, &X3, fd);
                 int act = (st[i] == 0) & (nn[i] < n_target);
                 int ok = act & (good > 0.5);
                 a1[i] = ok ? X1 : a1[i]; a2[i] = ok ? X2 : a2[i]; a3[i] = ok ? X3 : a3[i];
@@ -559,7 +599,7 @@ void vp_run(int64_t N, double *x, int32_t *status, int64_t *n, int64_t n_target,
             if (any) for (int i = 0; i < B; i++) {{
                 if (!redo[i]) continue;
                 double X1, X2, X3;
-                int code = vp_step_exact(a1[i], a2[i], a3[i], h, &X1, &X2, &X3);
+                int code = vp_step_exact(a1[i], a2[i], a3[i], h, &X1, &X2, &X3, fd);
                 int inok = _VP_FINITE(a1[i], a2[i], a3[i]), fin = _VP_FINITE(X1, X2, X3);
                 code = !inok ? {nf} : code ? code : fin ? 0 : {nf};
                 if (code == 0) {{ a1[i] = X1; a2[i] = X2; a3[i] = X3; nn[i] += 1; }}

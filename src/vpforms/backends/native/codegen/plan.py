@@ -23,7 +23,7 @@ from typing import Any
 from ...._methods._base import Adjoint, Relabelled
 from ...._methods.compose import AdjointComposition, Composition, SymmetricPair
 from ...._methods.rk4 import RK4
-from .potentials import RK4Stage, class_stage, symbolic_reason
+from .potentials import RK4Stage, class_stage, field_reason
 
 __all__ = ["plan", "unsupported_reason"]
 
@@ -60,7 +60,7 @@ def plan(method: Any) -> list[tuple[Any, float]] | str:
             return "RK4 is not relabelled natively"
         return [(s.relabel(m.pi), c) for s, c in inner]
     if isinstance(m, RK4):
-        why = symbolic_reason(m.field)
+        why = field_reason(m.field)
         return why if why else [(RK4Stage(m.field), 1.0)]
     st = class_stage(m)
     return st if isinstance(st, str) else [(st, 1.0)]

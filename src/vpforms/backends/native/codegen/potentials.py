@@ -39,9 +39,10 @@ from ...._quadrature import line_integral_expr
 from ....symbolic import _symbols as G
 from ....symbolic.recipes import flip_generic
 from .cprinter import c_unsupported
+from .splines import DataRef, spline_field_exprs, spline_pair, spline_reason
 
 __all__ = ["CORR_S", "DL_QPC", "CorrectionStage", "DLStage", "MapStage", "RK4Stage", "ThetaStage",
-           "class_stage", "potential_pair", "symbolic_reason"]
+           "class_stage", "field_exprs", "field_reason", "potential_pair", "symbolic_reason"]
 
 
 @dataclass(frozen=True)
@@ -152,6 +153,26 @@ def symbolic_reason(field: Any) -> str | None:
     return None
 
 
+def field_reason(field: Any) -> str | None:
+    """None if native can evaluate ``field``: SymPy expressions C can print, or a spline vector
+    potential (:mod:`.splines`); else why not."""
+    if getattr(field, "exprs", None) is not None:
+        return symbolic_reason(field)
+    return spline_reason(field)
+
+
+def field_exprs(field: Any) -> tuple:
+    """a(x) in G.x: the field's expressions, or the curl of its spline vector potential."""
+    if getattr(field, "exprs", None) is None:
+        return spline_field_exprs(field)
+    return _to_x(field, field.exprs)
+
+
+def _free(expr: Any) -> set:
+    """The free symbols of ``expr`` but the run-time data (:class:`.splines.DataRef`)."""
+    return {s for s in sp.sympify(expr).free_symbols if not isinstance(s, DataRef)}
+
+
 def potential_pair(field: Any, splitting: str) -> tuple[sp.Expr, sp.Expr] | str:
     """The ``splitting`` ("se" or "dl") potentials of ``field`` as SymPy expressions in x1, x2, x3,
     as the JAX methods evaluate them, or why there are none:
@@ -162,6 +183,8 @@ def potential_pair(field: Any, splitting: str) -> tuple[sp.Expr, sp.Expr] | str:
       as :class:`~vpforms._quadrature.GLSum` (:func:`~vpforms._quadrature.line_integral_expr`),
       whose derivatives are the derivatives ``jax.grad`` takes of the JAX quadrature;
     * anything else (a gauge integral of supplied vector potentials by quadrature): the reason."""
+    if getattr(field, "exprs", None) is None and spline_reason(field) is None:
+        return spline_pair(field, splitting)  # the exact gauge of a spline of A, as atoms
     _, exprs, how = field._get(splitting)
     if exprs is not None:
         pair = _to_x(field, exprs)
@@ -206,12 +229,12 @@ def class_stage(m: Any) -> MapStage | str:
                 "expression); the default stage form (not --engine), the same map as nested θ-stages, "
                 "is generated natively")
     field = getattr(m, "field", None)
-    why = symbolic_reason(field)
+    why = field_reason(field)
     if why:
         return why
     if isinstance(m, (DLDL, SEDL)):
         return _dl_stage(m)
-    a = _to_x(field, field.exprs)
+    a = field_exprs(field)
     if isinstance(m, QuispelCorrection):
         return _correction_stage(m, a)
     if isinstance(m, SESE):
@@ -230,7 +253,7 @@ def class_stage(m: Any) -> MapStage | str:
         phi, Phi = gen.phi.xreplace(coeffs), gen.Phi.xreplace(coeffs)
     else:
         return f"{name} is not generated natively (no symbolic generating map for its class)"
-    extra = (phi.free_symbols | Phi.free_symbols) - {G.Y[2], G.Y[1], G.y[1], G.y[2], G.h}
+    extra = (_free(phi) | _free(Phi)) - {G.Y[2], G.Y[1], G.y[1], G.y[2], G.h}
     if extra:
         return f"{name}: potentials have unsubstituted parameters {sorted(map(str, extra))}"
     return MapStage(phi, Phi, m.case, m.case.sign, _newton(m), a)
@@ -263,7 +286,7 @@ def _dl_stage(m) -> DLStage | str:
     q, p, c = DL_QPC
     H1 = G1.xreplace({G.x[0]: c, G.x[1]: q, G.x[2]: p})
     H2 = -G2.xreplace({G.x[0]: q, G.x[1]: c, G.x[2]: p})
-    extra = (H1.free_symbols | H2.free_symbols) - set(DL_QPC)
+    extra = (_free(H1) | _free(H2)) - set(DL_QPC)
     if extra:
         return f"{m.name}: potentials have unsubstituted parameters {sorted(map(str, extra))}"
     n, theta2 = _newton(m), (m.theta if isinstance(m, DLDL) else 0.0)

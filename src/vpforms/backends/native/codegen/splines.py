@@ -1,0 +1,396 @@
+"""Spline fields in the native backend: SymPy atoms for spline evaluations, their C, run-time data.
+
+A field given by a spline vector potential (:class:`vpforms.grids.SplinePotential`, relabelled
+or summed, :mod:`vpforms._vecpot`) has potentials that are spline evaluations, not formulas. They
+enter the generated code as SymPy atoms, so the stage plan, the symbolic differentiation of the
+generating map and the Newton emission are those of every other field:
+
+* :class:`SplineAt` ``(ref, orders, degrees, x₁, x₂, x₃)`` is ∂^orders s(x₁, x₂, x₃) of the
+  tensor spline ``ref`` (a :class:`DataRef`); its derivative along an argument is the atom of one
+  order more (``fdiff``), 0 past the degree — the exact derivative of the cell polynomial that
+  ``jax.grad`` takes of :func:`vpforms.grids._bspline.evaluate`;
+* a :class:`DataRef` scalar (the base point c of an antiderivative, a grid bound) is a number the
+  kernel reads at run time.
+
+So the C source depends only on the spline's structure (degrees, periodic axes, which derivatives
+and antiderivatives); the knots, cell polynomials, coefficients and scalars travel in one
+``const double *fd`` array (:func:`field_data`), and a new grid of the same structure reuses the
+compiled kernel. Layout of ``fd``: slot j (in the order the emitter first meets the refs) is
+``HS`` doubles at ``fd + HS·j``: a scalar's value, or a spline's header (offsets of its three knot
+vectors, three cell-polynomial tables and coefficients; m₁, m₂, m₃; the three periods, 0 for
+none); the arrays follow the headers.
+
+Evaluation in C (:data:`C_HELPERS`) is that of :mod:`vpforms.grids._bspline`: on a periodic axis
+x is wrapped into [t_k, t_k + T) (``jnp.mod``: fmod, + T where negative); on a non-periodic axis
+x outside [t_k, t_m] is NaN (value and every derivative), the knot interval is
+clip(#{t ≤ x} − 1, k, m − 1) (a binary search), the basis is the cell's power-basis polynomials
+differentiated exactly (Horner), and the coefficient block is contracted axis 0, then 1, then 2.
+"""
+
+from __future__ import annotations
+
+import contextvars
+import weakref
+from collections.abc import Sequence
+from contextlib import contextmanager
+from typing import Any
+
+import numpy as np
+import sympy as sp
+
+from ...._vecpot import GAUGE_ZERO, RelabelledPotential, SumPotential, VectorPotential
+from ....grids._bspline import PeriodicAntiderivative, TensorSpline
+from ....grids._spline_potential import SplinePotential
+from ....symbolic import _symbols as G
+
+__all__ = ["C_HELPERS", "HS", "DataRef", "SplineAt", "collecting", "data_refs", "domain_test",
+           "field_data", "spline_calls", "spline_field_exprs", "spline_pair", "spline_reason"]
+
+#: doubles per slot of the data array (a scalar, or a spline's header)
+HS = 16
+
+
+class DataRef(sp.Dummy):
+    """A symbol standing for run-time data: a :class:`TensorSpline` (inside :class:`SplineAt`) or
+    a float (printed as a read of the data array). A Dummy: two grids never share a ref, and
+    expressions order by its name (structural), not by the data."""
+
+    obj: Any = None
+
+    def __new__(cls, name: str, obj: Any):
+        self = super().__new__(cls, name)
+        self.obj = obj
+        return self
+
+
+def _code(v: Sequence[int]) -> sp.Integer:
+    """Three small integers (orders, degrees: each < 10) as one SymPy integer (an argument of
+    :class:`SplineAt`, which SymPy differentiates like any other: it must be an Expr)."""
+    return sp.Integer(100 * v[0] + 10 * v[1] + v[2])
+
+
+def _uncode(c: Any) -> list[int]:
+    c = int(c)
+    return [c // 100, c // 10 % 10, c % 10]
+
+
+class SplineAt(sp.Function):
+    """∂^orders s(x₁, x₂, x₃) of the tensor spline ``ref``: args (ref, orders, degrees, x₁, x₂,
+    x₃), orders and degrees as :func:`_code` s."""
+
+    nargs = 6
+    _vp_native = True  # printed by spline_calls, not by the C printer
+
+    def fdiff(self, argindex: int = 1):
+        if argindex < 4:
+            raise sp.ArgumentIndexError(self, argindex)
+        a = argindex - 4
+        ref, orders, degrees, *x = self.args
+        o = _uncode(orders)
+        o[a] += 1
+        if o[a] > _uncode(degrees)[a]:  # the cell polynomials have degree k along axis a
+            return sp.Integer(0)
+        return SplineAt(ref, _code(o), degrees, *x)
+
+    @property
+    def orders(self) -> list[int]:
+        return _uncode(self.args[1])
+
+    @property
+    def degrees(self) -> list[int]:
+        return _uncode(self.args[2])
+
+
+# ----------------------------------------------------------------------------- SymPy of potentials
+_SPLINE_REFS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _spline_atom(s: TensorSpline, name: str, x: Sequence[Any]) -> sp.Expr:
+    ref = _SPLINE_REFS.get(s)
+    if ref is None:
+        ref = _SPLINE_REFS[s] = DataRef(name, s)
+    if max(s.degrees) > 9:
+        raise ValueError(f"native splines have degrees ≤ 9; got {s.degrees}")
+    return SplineAt(ref, _code((0, 0, 0)), _code(s.degrees), *x)
+
+
+class _Exprs:
+    """A vector potential as SymPy in G.x: ``components`` and ``antiderivative(k, c)`` (exact)."""
+
+    def __init__(self, components, antiderivative):
+        self.components, self.antiderivative = components, antiderivative
+
+
+def _pot_exprs(A: Any) -> _Exprs | str:
+    """The SymPy form of a vector potential built of splines, or why there is none."""
+    x = G.x
+    if isinstance(A, SplinePotential):
+        comps = tuple(_spline_atom(s, f"A{i}", x) for i, s in enumerate(A.splines))
+        scal: dict = {}
+
+        def anti(k, c):
+            obj = A.antiderivative(k, c)
+            if isinstance(obj, TensorSpline):
+                return _spline_atom(obj, f"X{k}", x)
+            if isinstance(obj, PeriodicAntiderivative):  # μ·(x_k − c) + Q (exact far round)
+                key = (k, float(obj.c))
+                if key not in scal:
+                    scal[key] = DataRef(f"c{k}", float(obj.c))
+                return ((x[obj.axis] - scal[key]) * _spline_atom(obj.M, f"M{k}", x)
+                        + _spline_atom(obj.Q, f"Q{k}", x))
+            return None
+
+        return _Exprs(comps, anti)
+    if isinstance(A, RelabelledPotential):  # Ã_k(x) = s·A_{π(k)}(x·π⁻¹), χ̃_k = s·χ_{π(k)}(x·π⁻¹)
+        base = _pot_exprs(A.base)
+        if isinstance(base, str):
+            return base
+        sub = {x[j]: x[A._inv[j]] for j in range(3)}
+        s = sp.Integer(int(A._sign))
+
+        def pull(e):
+            return None if e is None else s * sp.sympify(e).xreplace(sub)
+
+        return _Exprs(tuple(pull(base.components[m]) for m in A._idx),
+                      lambda k, c: pull(base.antiderivative(A._idx[k], c)))
+    if isinstance(A, SumPotential):
+        parts = [_pot_exprs(p) for p in A.parts]
+        for p in parts:
+            if isinstance(p, str):
+                return p
+
+        def anti(k, c):
+            terms = [p.antiderivative(k, c) for p in parts]
+            return None if any(t is None for t in terms) else sp.Add(*terms)
+
+        return _Exprs(tuple(sp.Add(*(p.components[i] for p in parts)) for i in range(3)), anti)
+    return (f"its vector potential ({getattr(A, 'description', type(A).__name__)}) is not a "
+            "spline; native evaluates splines of A (vpforms.grids) and SymPy fields only")
+
+
+def _vector_potential(field: Any) -> VectorPotential | None:
+    """The vector potential the field's pairs are built from (as ``Field._gauge_potentials``)."""
+    objs = [A for A in getattr(field, "_vector_potentials", ()) if isinstance(A, VectorPotential)]
+    if not objs or getattr(field, "exprs", None) is not None:
+        return None
+    return next((A for A in objs if A.exact_gauge), objs[0])
+
+
+def spline_reason(field: Any) -> str | None:
+    """None if ``field`` is a callable field of a spline vector potential native can evaluate
+    (then :func:`spline_pair`, :func:`spline_field_exprs` apply), else why not."""
+    A = _vector_potential(field)
+    if A is None:
+        return "field was given as a JAX callable; build it with Field.from_sympy"
+    got = _pot_exprs(A)
+    if isinstance(got, str):
+        return got
+    inside = getattr(field, "inside", None)
+    if inside is not None and not isinstance(getattr(inside, "__self__", None), SplinePotential):
+        return "the field's domain test (field.inside) is not a spline grid's"
+    return None
+
+
+def spline_field_exprs(field: Any) -> tuple:
+    """a = ∇×A (as :func:`vpforms._vecpot.curl_of`) in G.x, from the spline atoms."""
+    A = _pot_exprs(_vector_potential(field)).components
+    x = G.x
+    return (sp.diff(A[2], x[1]) - sp.diff(A[1], x[2]), sp.diff(A[0], x[2]) - sp.diff(A[2], x[0]),
+            sp.diff(A[1], x[0]) - sp.diff(A[0], x[1]))
+
+
+def spline_pair(field: Any, splitting: str) -> tuple | str:
+    """The SE (F¹, F³) or DL (G¹, G²) pair A − ∇χ, χ = ∫_{c_k}^{x_k} A_k (exact) with c = the
+    field's origin, as :meth:`vpforms._vecpot.VectorPotential.gauge`; or why there is none."""
+    A = _pot_exprs(_vector_potential(field))
+    k = GAUGE_ZERO[splitting]
+    chi = A.antiderivative(k, float(field.origin[k]))
+    if chi is None:
+        return f"the {splitting.upper()} gauge integral of this spline is not generated natively"
+    keep = (0, 2) if splitting == "se" else (0, 1)
+    return tuple(A.components[i] - sp.diff(chi, G.x[i]) for i in keep)
+
+
+def domain_test(field: Any) -> list[tuple[int, DataRef, DataRef]]:
+    """[(axis, lo, hi)] of the grid box of ``field.inside`` (non-periodic axes), as data refs."""
+    inside = getattr(field, "inside", None)
+    pot = getattr(inside, "__self__", None)
+    if not isinstance(pot, SplinePotential):
+        return []
+    cache = pot.__dict__.setdefault("_native_box", {})
+    out = []
+    for a, (lo, hi) in enumerate(pot.grid_box):
+        if pot.periods[a] is None:
+            if a not in cache:
+                cache[a] = (DataRef(f"lo{a}", float(lo)), DataRef(f"hi{a}", float(hi)))
+            out.append((a, *cache[a]))
+    return out
+
+
+# ----------------------------------------------------------------------------- emission and data
+_ACTIVE: contextvars.ContextVar = contextvars.ContextVar("vp_native_data", default=None)
+
+
+@contextmanager
+def collecting():
+    """Collect the data refs the emitter meets (slots in order of first use); yields the list."""
+    refs: list = []
+    token = _ACTIVE.set(refs)
+    try:
+        yield refs
+    finally:
+        _ACTIVE.reset(token)
+
+
+def _slot(ref: DataRef) -> int:
+    refs = _ACTIVE.get()
+    if refs is None:
+        raise RuntimeError("spline data met outside kernel generation")
+    for j, r in enumerate(refs):
+        if r is ref:
+            return j
+    refs.append(ref)
+    return len(refs) - 1
+
+
+def data_refs(expr: Any) -> set:
+    return {s for s in sp.sympify(expr).free_symbols if isinstance(s, DataRef)}
+
+
+def spline_calls(exprs: list[Any], tag: str, printer: Any) -> tuple[list[str], list[Any]]:
+    """The :class:`SplineAt` atoms of ``exprs`` as C (one interval search and basis per axis for
+    all orders of one spline at one point), and scalar :class:`DataRef` s as reads of ``fd``.
+    Returns the statements and ``exprs`` with the atoms replaced by their variables."""
+    exprs = [sp.sympify(e) for e in exprs]
+    atoms = sorted({a for e in exprs for a in e.atoms(SplineAt)}, key=sp.default_sort_key)
+    groups: dict = {}
+    for a in atoms:
+        groups.setdefault((a.args[0], a.args[3:]), []).append(a)
+    lines: list[str] = []
+    rep: dict = {}
+    for g, ((ref, args), members) in enumerate(groups.items()):
+        p = f"{tag}_s{g}"
+        k = members[0].degrees
+        for e in args:
+            if e.atoms(SplineAt):
+                raise ValueError("a spline evaluated at a spline is not generated natively")
+        lines.append(f"const double *{p}_h = fd + {HS * _slot(ref)};")
+        for ax in range(3):
+            arg = printer.doprint(e_sub(args[ax]))
+            lines.append(f"double {p}_y{ax}; int64_t {p}_i{ax} = vp_cell(fd, {p}_h, {ax}, {k[ax]}, "
+                         f"{arg}, &{p}_y{ax});")
+            for n in sorted({a.orders[ax] for a in members}):
+                lines.append(f"double {p}_N{ax}_{n}[{k[ax] + 1}]; vp_basis(fd, {p}_h, {ax}, {k[ax]}, "
+                             f"{p}_i{ax}, {n}, {p}_y{ax}, {p}_N{ax}_{n});")
+        for j, a in enumerate(members):
+            o = a.orders
+            v = sp.Symbol(f"{p}_v{j}")
+            lines.append(f"double {v} = vp_contract(fd, {p}_h, {k[0]}, {k[1]}, {k[2]}, {p}_i0, {p}_i1, "
+                         f"{p}_i2, {p}_N0_{o[0]}, {p}_N1_{o[1]}, {p}_N2_{o[2]});")
+            rep[a] = v
+    exprs = [e.xreplace(rep) for e in exprs]
+    scal = {r: sp.Symbol(f"fd[{HS * _slot(r)}]") for e in exprs for r in data_refs(e)}
+    return lines, [e.xreplace(scal) for e in exprs]
+
+
+def e_sub(e: Any) -> Any:
+    """A data scalar inside an argument, as a read of ``fd``."""
+    return e.xreplace({r: sp.Symbol(f"fd[{HS * _slot(r)}]") for r in data_refs(e)})
+
+
+def field_data(refs: Sequence[DataRef]) -> np.ndarray | None:
+    """The ``fd`` array of the refs (module docstring), or None when there are none."""
+    if not refs:
+        return None
+    head = np.zeros((len(refs), HS))
+    arrays: list[np.ndarray] = []
+    pos = len(refs) * HS
+
+    def put(a) -> int:
+        nonlocal pos
+        a = np.ascontiguousarray(np.asarray(a, dtype=np.float64)).ravel()
+        arrays.append(a)
+        pos += a.size
+        return pos - a.size
+
+    for j, r in enumerate(refs):
+        o = r.obj
+        if isinstance(o, TensorSpline):
+            c = np.asarray(o.coefficients)
+            if c.ndim != 3:
+                raise ValueError("native splines are scalar (coefficients of shape (m1, m2, m3))")
+            head[j, 0:3] = [put(t) for t in o.knots]
+            head[j, 3:6] = [put(P) for P in o.cells]
+            head[j, 6] = put(c)
+            head[j, 7:10] = c.shape
+            head[j, 10:13] = [0.0 if T is None else float(T) for T in o.periods]
+        else:
+            head[j, 0] = float(o)
+    return np.concatenate([head.ravel(), *arrays])
+
+
+#: the C evaluation of a spline at a point (module docstring); h is the spline's header in fd,
+#: whose offsets count from fd
+C_HELPERS = r"""
+/* axis a of the spline with header h at x: the knot interval i = clip(#{t <= x} - 1, k, m - 1)
+   and y = x - t_i; on a periodic axis x wraps into [t_k, t_k + T) (jnp.mod), off a
+   non-periodic axis's range [t_k, t_m] y is NaN (the value and every derivative) */
+static inline _VP_INLINE int64_t vp_cell(const double *fd, const double *h, int a, int k, double x,
+                                         double *y) {
+    const double *t = fd + (int64_t)h[a];
+    int64_t m = (int64_t)h[7 + a];
+    double T = h[10 + a], lo = t[k];
+    if (T > 0.0) {
+        double r = fmod(x - lo, T);
+        x = lo + ((r != 0.0 && r < 0.0) ? r + T : r);
+    }
+    double xs = x;
+    if (!(T > 0.0) && !(x >= lo && x <= t[m])) x = NAN;
+    int64_t i = k, hi = m - 1;  /* the largest i in [k, m - 1] with t_i <= xs (k if none, or NaN) */
+    while (i < hi) {
+        int64_t mid = (i + hi + 1) >> 1;
+        if (t[mid] <= xs) i = mid; else hi = mid - 1;
+    }
+    *y = x - t[i];
+    return i;
+}
+
+/* the n-th derivatives of the k+1 non-zero B-splines of cell i at y: Horner on the cell's
+   power-basis polynomials P[i - k, r, p] (coefficient of y^p), d^n/dy^n term by term */
+static inline _VP_INLINE void vp_basis(const double *fd, const double *h, int a, int k, int64_t i,
+                                       int n, double y, double *N) {
+    const double *P = fd + (int64_t)h[3 + a] + (i - k) * (k + 1) * (k + 1);
+    for (int r = 0; r <= k; r++) {
+        const double *q = P + r * (k + 1);
+        double f = 1.0;
+        for (int j = 0; j < n; j++) f *= (double)(k - j);
+        double v = f * q[k];
+        for (int p = k - 1; p >= n; p--) {
+            double g = 1.0;
+            for (int j = 0; j < n; j++) g *= (double)(p - j);
+            v = v * y + g * q[p];
+        }
+        N[r] = (n == k) ? v + 0.0 * y : v;  /* NaN off the grid, also for a constant */
+    }
+}
+
+/* sum_abc c[i0-k0+a, i1-k1+b, i2-k2+c] N0[a] N1[b] N2[c], contracted over axis 0, then 1, then 2 */
+static inline _VP_INLINE double vp_contract(const double *fd, const double *h, int k0, int k1, int k2,
+                                            int64_t i0, int64_t i1, int64_t i2, const double *N0,
+                                            const double *N1, const double *N2) {
+    const double *c = fd + (int64_t)h[6];
+    int64_t m1 = (int64_t)h[8], m2 = (int64_t)h[9];
+    const double *b = c + ((i0 - k0) * m1 + (i1 - k1)) * m2 + (i2 - k2);
+    double out = 0.0;
+    for (int z = 0; z <= k2; z++) {
+        double v = 0.0;
+        for (int y = 0; y <= k1; y++) {
+            double s = 0.0;
+            for (int x = 0; x <= k0; x++) s += N0[x] * b[(x * m1 + y) * m2 + z];
+            v += N1[y] * s;
+        }
+        out += N2[z] * v;
+    }
+    return out;
+}
+"""
