@@ -112,8 +112,9 @@ def _gl_loops(exprs: list[Any], tag: str) -> tuple[list[str], list[Any]]:
     for n in sorted({q.n for q in sums}):
         group = [q for q in sums if q.n == n]
         t = sp.Symbol(f"{tag}_t{n}")
-        body = _assign([f"{tag}_gf{n}_{k}" for k in range(len(group))],
-                       [q.integrand.xreplace({GL_T: t}) for q in group], {}, f"{tag}_g{n}")
+        with splines.scope():  # the loop's body is a C block
+            body = _assign([f"{tag}_gf{n}_{k}" for k in range(len(group))],
+                           [q.integrand.xreplace({GL_T: t}) for q in group], {}, f"{tag}_g{n}")
         # Σᵢ wᵢ f(tᵢ) in node order, as jnp.dot(w, f(t)) in vpforms._quadrature.line_integral
         lines += [f"double {', '.join(f'{acc[q]} = 0.0' for q in group)};",
                   f"for (int {tag}_k = 0; {tag}_k < {n}; {tag}_k++) {{",
@@ -199,7 +200,11 @@ def _solve_c(var: str, g: sp.Expr, subs: dict, guess: str, opts: tuple, tag: str
     dg = sp.diff(g, z)
     if newton or z in dg.free_symbols:
         emit = _newton_fixed_c if fixed else _newton_c
-        return emit(var, guess, _assign([f"{tag}_g", f"{tag}_dg"], [g, dg], {}, f"{tag}c"), opts, tag)
+        # spline axes whose argument does not move with z: evaluated once, before the iterations
+        pre = splines.hoist([g, dg], z, _printer)
+        with splines.scope():  # the iteration's body is a C block
+            body = _assign([f"{tag}_g", f"{tag}_dg"], [g, dg], {}, f"{tag}c")
+        return pre + emit(var, guess, body, opts, tag)
     # affine in z: the root Newton converges to, in closed form; the same twist test on g' = const
     lines = _assign([f"{tag}_g0", f"{tag}_dg"], [g.xreplace({z: 0}), dg], {}, f"{tag}c")
     lines.append(f"double {var} = -{tag}_g0 / {tag}_dg;")
@@ -339,9 +344,10 @@ def _theta_c(st: ThetaStage, w: tuple[str, str, str], tag: str, newton: bool,
                           newton, fixed)
         lines += [f"double {tag}_q1 = {tag}_Q1;"] + ([f"double {tag}_okin = 1.0;"] if fixed else [])
     else:
-        body = [f"double {tag}_q1 = z;", *inner(f"{tag}i")]
-        body += [f"{tag}_okin = {tag}_okin * {tag}i_ok;"] if fixed else []
-        body += _assign([f"{tag}o_g", f"{tag}o_dg"], [gq, dgq], {}, f"{tag}oc")
+        with splines.scope():  # the outer iteration's body is a C block
+            body = [f"double {tag}_q1 = z;", *inner(f"{tag}i")]
+            body += [f"{tag}_okin = {tag}_okin * {tag}i_ok;"] if fixed else []
+            body += _assign([f"{tag}o_g", f"{tag}o_dg"], [gq, dgq], {}, f"{tag}oc")
         lines += [f"double {tag}_okin = 1.0;"] if fixed else []
         lines += (_newton_fixed_c if fixed else _newton_c)(f"{tag}_Q1", f"{tag}_guess", body,
                                                             st.newton, f"{tag}o")
@@ -359,7 +365,8 @@ def _dl_body(st: DLStage, newton: bool, fixed: bool) -> list[str]:
     lines = ["double w1 = x1, w2 = x2, w3 = x3;"]
     tags = [f"t{k}" for k in range(len(st.stages))]
     for ts, t in zip(st.stages, tags):
-        lines += _theta_c(ts, tuple(f"w{i + 1}" for i in ts.idx), t, newton, fixed)
+        with splines.scope():  # a stage reassigns w: nothing evaluated at w before it is reused
+            lines += _theta_c(ts, tuple(f"w{i + 1}" for i in ts.idx), t, newton, fixed)
     lines.append("X1 = w1; X2 = w2; X3 = w3;")
     if fixed:
         return lines + [(f"ok = {' * '.join(f'{t}_ok' for t in tags)} * "
@@ -526,12 +533,15 @@ def _kernel(method: Any, engine: str) -> str:
         names: dict[str, str] = {}  # body → function name (stages with the same map share one)
         calls = []
         for stage, coef in stages:
-            body = "\n".join(_stage_body(stage, engine == "newton", fixed))
+            with splines.scope(function=True):
+                body = "\n".join(_stage_body(stage, engine == "newton", fixed))
             fn = names.setdefault(body, f"vp_{kind}{len(names)}")
             call = f"{fn}(y1, y2, y3, {coef!r} * h, &y1, &y2, &y3, fd);"
             calls.append(f"ok *= {call}" if fixed else f"c = {call} code = code ? code : c;")
         fns[kind] = "".join(_stage_fn(fn, body.split("\n"), fixed) for body, fn in names.items())
-        steps[kind] = _step_fn(f"vp_step_{kind}", calls, fixed, _guard_c(field, kappa, fixed))
+        with splines.scope(function=True):
+            guard = _guard_c(field, kappa, fixed)
+        steps[kind] = _step_fn(f"vp_step_{kind}", calls, fixed, guard)
     fns, steps = fns["fast"] + fns["exact"], steps["fast"] + steps["exact"]
     nf = RESULTS.nonfinite
     # the Gauss–Legendre rules the quadrature potentials loop over (_gl_loops)

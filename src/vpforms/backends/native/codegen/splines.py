@@ -44,7 +44,7 @@ from ....grids._spline_potential import SplinePotential
 from ....symbolic import _symbols as G
 
 __all__ = ["C_HELPERS", "HS", "DataRef", "SplineAt", "collecting", "data_refs", "domain_test",
-           "field_data", "spline_calls", "spline_field_exprs", "spline_pair", "spline_reason"]
+           "field_data", "hoist", "scope", "spline_calls", "spline_field_exprs", "spline_pair", "spline_reason"]
 
 #: doubles per slot of the data array (a scalar, or a spline's header)
 HS = 16
@@ -228,66 +228,167 @@ def domain_test(field: Any) -> list[tuple[int, DataRef, DataRef]]:
 
 
 # ----------------------------------------------------------------------------- emission and data
+class _Emission:
+    """What the emitter of one kernel knows: the data refs (slots in order of first use), the
+    knot classes (axes of splines with equal knots, degree and period: one interval search and
+    basis serve them all), and a stack of C scopes holding the axis computations already emitted
+    (an outer scope's are visible in the inner ones: a Newton loop reuses what was hoisted)."""
+
+    def __init__(self):
+        self.refs: list = []
+        self.classes: list = []
+        self.scopes: list[dict] = [{}]
+        self.count = 0
+
+    def slot(self, ref: DataRef) -> int:
+        for j, r in enumerate(self.refs):
+            if r is ref:
+                return j
+        self.refs.append(ref)
+        return len(self.refs) - 1
+
+    def knot_class(self, ref: DataRef, a: int) -> int:
+        s = ref.obj
+        t, k, T = np.asarray(s.knots[a]), s.degrees[a], s.periods[a]
+        for j, (a2, t2, k2, T2) in enumerate(self.classes):
+            if (a2, k2, T2) == (a, k, T) and t2.shape == t.shape and np.array_equal(t2, t):
+                return j
+        self.classes.append((a, t, k, T))
+        return len(self.classes) - 1
+
+    def find(self, key: Any) -> Any:
+        for sc in reversed(self.scopes):
+            if key in sc:
+                return sc[key]
+        return None
+
+
 _ACTIVE: contextvars.ContextVar = contextvars.ContextVar("vp_native_data", default=None)
 
 
 @contextmanager
 def collecting():
     """Collect the data refs the emitter meets (slots in order of first use); yields the list."""
-    refs: list = []
-    token = _ACTIVE.set(refs)
+    em = _Emission()
+    token = _ACTIVE.set(em)
     try:
-        yield refs
+        yield em.refs
     finally:
         _ACTIVE.reset(token)
 
 
-def _slot(ref: DataRef) -> int:
-    refs = _ACTIVE.get()
-    if refs is None:
+def _em() -> _Emission:
+    em = _ACTIVE.get()
+    if em is None:
         raise RuntimeError("spline data met outside kernel generation")
-    for j, r in enumerate(refs):
-        if r is ref:
-            return j
-    refs.append(ref)
-    return len(refs) - 1
+    return em
+
+
+@contextmanager
+def scope(function: bool = False):
+    """A C block (``function``: a new C function, which sees nothing emitted before): axis
+    computations emitted inside are forgotten at its end. A no-op outside kernel generation."""
+    em = _ACTIVE.get()
+    if em is None:
+        yield
+        return
+    saved = (em.scopes, em.count)
+    em.scopes = [{}] if function else [*em.scopes, {}]
+    if function:
+        em.count = 0
+    try:
+        yield
+    finally:
+        em.scopes = saved[0]
+        if function:
+            em.count = saved[1]
+
+
+def _slot(ref: DataRef) -> int:
+    return _em().slot(ref)
 
 
 def data_refs(expr: Any) -> set:
     return {s for s in sp.sympify(expr).free_symbols if isinstance(s, DataRef)}
 
 
+def _axis(em: _Emission, ref: DataRef, a: int, k: int, arg: Any, n: int, printer: Any,
+          lines: list[str]) -> tuple[str, str]:
+    """(the knot-interval variable, the basis array of order n) of axis a of ``ref`` at ``arg``,
+    emitted into ``lines`` unless a visible scope has them."""
+    cls = em.knot_class(ref, a)
+    c = printer.doprint(e_sub(arg))
+    cell = em.find((cls, c))
+    if cell is None:
+        em.count += 1
+        q = f"vs{em.count}"
+        lines.append(f"double {q}_y; int64_t {q}_i = vp_cell(fd, fd + {HS * em.slot(ref)}, {a}, "
+                     f"{k}, {c}, &{q}_y);")
+        cell = em.scopes[-1][(cls, c)] = (q, HS * em.slot(ref))
+    q, h = cell
+    N = em.find((cls, c, n))
+    if N is None:
+        N = f"{q}_N{n}"
+        lines.append(f"double {N}[{k + 1}]; vp_basis(fd, fd + {h}, {a}, {k}, {q}_i, {n}, {q}_y, {N});")
+        em.scopes[-1][(cls, c, n)] = N
+    return f"{q}_i", N
+
+
+def hoist(exprs: list[Any], z: Any, printer: Any) -> list[str]:
+    """Before a Newton loop in z: the axis computations (interval, basis) of the spline atoms of
+    ``exprs`` whose argument on that axis is free of z, emitted once in the current scope (the
+    loop's body then reuses them)."""
+    em = _ACTIVE.get()
+    if em is None:
+        return []
+    lines: list[str] = []
+    for at in sorted({a for e in exprs for a in sp.sympify(e).atoms(SplineAt)}, key=sp.default_sort_key):
+        ref, k = at.args[0], at.degrees
+        for ax in range(3):
+            arg = at.args[3 + ax]
+            if z not in arg.free_symbols:
+                _axis(em, ref, ax, k[ax], arg, at.orders[ax], printer, lines)
+    return lines
+
+
 def spline_calls(exprs: list[Any], tag: str, printer: Any) -> tuple[list[str], list[Any]]:
-    """The :class:`SplineAt` atoms of ``exprs`` as C (one interval search and basis per axis for
-    all orders of one spline at one point), and scalar :class:`DataRef` s as reads of ``fd``.
+    """The :class:`SplineAt` atoms of ``exprs`` as C, and scalar :class:`DataRef` s as reads of
+    ``fd``. Per axis one interval search and one basis per derivative order serve every spline
+    of the same knots at the same argument (and are reused from an enclosing scope); the
+    coefficient block of a spline is contracted over axis 0 once per order along it, then over
+    axis 1 once per pair of orders (the sums :func:`vpforms.grids._bspline._contract` shares).
     Returns the statements and ``exprs`` with the atoms replaced by their variables."""
     exprs = [sp.sympify(e) for e in exprs]
     atoms = sorted({a for e in exprs for a in e.atoms(SplineAt)}, key=sp.default_sort_key)
+    if not atoms:
+        return [], exprs
+    em = _em()
     groups: dict = {}
     for a in atoms:
+        if any(arg.atoms(SplineAt) for arg in a.args[3:]):
+            raise ValueError("a spline evaluated at a spline is not generated natively")
         groups.setdefault((a.args[0], a.args[3:]), []).append(a)
     lines: list[str] = []
     rep: dict = {}
-    for g, ((ref, args), members) in enumerate(groups.items()):
-        p = f"{tag}_s{g}"
+    for (ref, args), members in groups.items():
         k = members[0].degrees
-        for e in args:
-            if e.atoms(SplineAt):
-                raise ValueError("a spline evaluated at a spline is not generated natively")
-        lines.append(f"const double *{p}_h = fd + {HS * _slot(ref)};")
-        for ax in range(3):
-            arg = printer.doprint(e_sub(args[ax]))
-            lines.append(f"double {p}_y{ax}; int64_t {p}_i{ax} = vp_cell(fd, {p}_h, {ax}, {k[ax]}, "
-                         f"{arg}, &{p}_y{ax});")
-            for n in sorted({a.orders[ax] for a in members}):
-                lines.append(f"double {p}_N{ax}_{n}[{k[ax] + 1}]; vp_basis(fd, {p}_h, {ax}, {k[ax]}, "
-                             f"{p}_i{ax}, {n}, {p}_y{ax}, {p}_N{ax}_{n});")
-        for j, a in enumerate(members):
-            o = a.orders
+        em.count += 1
+        p = f"{tag}_s{em.count}"
+        h = f"fd + {HS * em.slot(ref)}"
+        ax = [{n: _axis(em, ref, a, k[a], args[a], n, printer, lines)
+               for n in sorted({m.orders[a] for m in members})} for a in range(3)]
+        idx = ", ".join(ax[a][next(iter(ax[a]))][0] for a in range(3))
+        for o0 in sorted({m.orders[0] for m in members}):
+            lines.append(f"double {p}_b{o0}[{(k[1] + 1) * (k[2] + 1)}]; vp_c0(fd, {h}, {k[0]}, "
+                         f"{k[1]}, {k[2]}, {idx}, {ax[0][o0][1]}, {p}_b{o0});")
+        for o0, o1 in sorted({tuple(m.orders[:2]) for m in members}):
+            lines.append(f"double {p}_b{o0}{o1}[{k[2] + 1}]; vp_c1({k[1]}, {k[2]}, {ax[1][o1][1]}, "
+                         f"{p}_b{o0}, {p}_b{o0}{o1});")
+        for j, m in enumerate(members):
+            o = m.orders
             v = sp.Symbol(f"{p}_v{j}")
-            lines.append(f"double {v} = vp_contract(fd, {p}_h, {k[0]}, {k[1]}, {k[2]}, {p}_i0, {p}_i1, "
-                         f"{p}_i2, {p}_N0_{o[0]}, {p}_N1_{o[1]}, {p}_N2_{o[2]});")
-            rep[a] = v
+            lines.append(f"double {v} = vp_c2({k[2]}, {ax[2][o[2]][1]}, {p}_b{o[0]}{o[1]});")
+            rep[m] = v
     exprs = [e.xreplace(rep) for e in exprs]
     scal = {r: sp.Symbol(f"fd[{HS * _slot(r)}]") for e in exprs for r in data_refs(e)}
     return lines, [e.xreplace(scal) for e in exprs]
@@ -374,23 +475,33 @@ static inline _VP_INLINE void vp_basis(const double *fd, const double *h, int a,
     }
 }
 
-/* sum_abc c[i0-k0+a, i1-k1+b, i2-k2+c] N0[a] N1[b] N2[c], contracted over axis 0, then 1, then 2 */
-static inline _VP_INLINE double vp_contract(const double *fd, const double *h, int k0, int k1, int k2,
-                                            int64_t i0, int64_t i1, int64_t i2, const double *N0,
-                                            const double *N1, const double *N2) {
+/* the coefficient block c[i0-k0+a, i1-k1+b, i2-k2+c] contracted over axis 0 with N0: P[b, c] */
+static inline _VP_INLINE void vp_c0(const double *fd, const double *h, int k0, int k1, int k2,
+                                    int64_t i0, int64_t i1, int64_t i2, const double *N0, double *P) {
     const double *c = fd + (int64_t)h[6];
     int64_t m1 = (int64_t)h[8], m2 = (int64_t)h[9];
     const double *b = c + ((i0 - k0) * m1 + (i1 - k1)) * m2 + (i2 - k2);
-    double out = 0.0;
-    for (int z = 0; z <= k2; z++) {
-        double v = 0.0;
-        for (int y = 0; y <= k1; y++) {
+    for (int y = 0; y <= k1; y++)
+        for (int z = 0; z <= k2; z++) {
             double s = 0.0;
             for (int x = 0; x <= k0; x++) s += N0[x] * b[(x * m1 + y) * m2 + z];
-            v += N1[y] * s;
+            P[y * (k2 + 1) + z] = s;
         }
-        out += N2[z] * v;
+}
+
+/* then over axis 1 with N1: V[c] */
+static inline _VP_INLINE void vp_c1(int k1, int k2, const double *N1, const double *P, double *V) {
+    for (int z = 0; z <= k2; z++) {
+        double s = 0.0;
+        for (int y = 0; y <= k1; y++) s += N1[y] * P[y * (k2 + 1) + z];
+        V[z] = s;
     }
-    return out;
+}
+
+/* then over axis 2 with N2: the value */
+static inline _VP_INLINE double vp_c2(int k2, const double *N2, const double *V) {
+    double s = 0.0;
+    for (int z = 0; z <= k2; z++) s += N2[z] * V[z];
+    return s;
 }
 """
