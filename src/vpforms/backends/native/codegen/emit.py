@@ -518,8 +518,9 @@ def _kernel(method: Any, engine: str) -> str:
     stages = plan(method)
     if isinstance(stages, str):
         raise ValueError(stages)  # noqa: TRY004 - a method that cannot be generated
-    # the guard of the JAX step (Method._accept), on every vpforms method; RK4 has none
-    field = getattr(method, "field", None)
+    # the guard of the JAX step and the domain test of a gridded field (left_domain), both of
+    # Method._accept, on every vpforms method; RK4 has neither
+    field = getattr(method, "field", None) if isinstance(method, Method) else None
     kappa = getattr(method, "guard_kappa", None) if isinstance(method, Method) else None
     fns, steps = {}, {}
     for kind, fixed in (("exact", False), ("fast", True)):

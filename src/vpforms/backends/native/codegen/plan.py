@@ -20,10 +20,11 @@ from __future__ import annotations
 
 from typing import Any
 
-from ...._methods._base import Adjoint, Relabelled
+from ...._methods._base import Adjoint, Method, Relabelled
 from ...._methods.compose import AdjointComposition, Composition, SymmetricPair
 from ...._methods.rk4 import RK4
 from .potentials import RK4Stage, class_stage, field_reason
+from .splines import domain_reason
 
 __all__ = ["plan", "unsupported_reason"]
 
@@ -69,4 +70,7 @@ def plan(method: Any) -> list[tuple[Any, float]] | str:
 def unsupported_reason(method: Any) -> str | None:
     """None if :func:`.emit.kernel_source` can generate ``method``, else the reason it cannot."""
     p = plan(method)
-    return p if isinstance(p, str) else None
+    if isinstance(p, str):
+        return p
+    # the statuses of a step (Method._accept) test the top-level field's domain; RK4 has none
+    return domain_reason(method.field) if isinstance(method, Method) else None

@@ -43,7 +43,7 @@ from ....grids._bspline import PeriodicAntiderivative, TensorSpline
 from ....grids._spline_potential import SplinePotential
 from ....symbolic import _symbols as G
 
-__all__ = ["C_HELPERS", "HS", "DataRef", "SplineAt", "collecting", "data_refs", "domain_test",
+__all__ = ["C_HELPERS", "HS", "DataRef", "SplineAt", "collecting", "data_refs", "domain_reason", "domain_test",
            "field_data", "hoist", "scope", "spline_calls", "spline_field_exprs", "spline_pair", "spline_reason"]
 
 #: doubles per slot of the data array (a scalar, or a spline's header)
@@ -183,11 +183,15 @@ def spline_reason(field: Any) -> str | None:
     if A is None:
         return "field was given as a JAX callable; build it with Field.from_sympy"
     got = _pot_exprs(A)
-    if isinstance(got, str):
-        return got
+    return got if isinstance(got, str) else None
+
+
+def domain_reason(field: Any) -> str | None:
+    """None unless ``field`` has a domain test (``field.inside``: a step that fails off it is
+    ``left_domain``) that is not a spline grid's box, which native cannot emit."""
     inside = getattr(field, "inside", None)
     if inside is not None and not isinstance(getattr(inside, "__self__", None), SplinePotential):
-        return "the field's domain test (field.inside) is not a spline grid's"
+        return "the field's domain test (field.inside) is not a spline grid's; native emits those only"
     return None
 
 

@@ -1,0 +1,148 @@
+"""Spline fields on the native backend (issue #20 item 4): the spline of A evaluated in generated C
+with its knots and coefficients passed at run time (``vpforms.backends.native.codegen.splines``).
+
+Native and JAX run the same map (the same exact antiderivatives, the same derivatives of the cell
+polynomials), so they agree to rounding after 100 steps, with the same statuses — also for a line
+that leaves the grid (``RESULTS.left_domain``, not NaN). A second grid of the same structure and
+other data reuses the compiled kernel.
+
+One tmp cache directory per module (env ``VPFORMS_NATIVE_CACHE``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import vpforms as vp
+from vpforms import RESULTS
+from vpforms.backends import select_backend
+from vpforms.backends.native import build as nbuild
+from vpforms.backends.native.codegen import kernel_parts
+from vpforms.backends.native.runner import kernel_for, run_points
+from vpforms.grids import cartesian_grid_field
+from vpforms.problems.coil_fields import make_stellarator
+
+_OK, _WHY = vp.native.available()
+pytestmark = pytest.mark.skipif(not _OK, reason=f"native backend unavailable: {_WHY}")
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _cache(isolated_native_cache):
+    return isolated_native_cache
+
+
+def _cartesian(n: int = 8, half: float = 2.0, scale: float = 1.0, shift: float = 0.0):
+    """∇×A of a spline of A = (sin(y + 0.3z), cos z + 0.5xz, sin x + 0.2y)·scale on an n³ grid of
+    [shift − half, shift + half]³."""
+    g = shift + np.linspace(-half, half, n)
+    X = np.stack(np.meshgrid(g, g, g, indexing="ij"))
+    A = scale * np.stack([np.sin(X[1] + 0.3 * X[2]), np.cos(X[2]) + 0.5 * X[0] * X[2],
+                          np.sin(X[0]) + 0.2 * X[1]])
+    return cartesian_grid_field((g, g, g), A)
+
+
+@pytest.fixture(scope="module")
+def cart():
+    return _cartesian()
+
+
+@pytest.fixture(scope="module")
+def stell():
+    return make_stellarator(n_R=12, n_phi=8, n_Z=12)
+
+
+#: three lines inside the Cartesian grid for 100 steps of 0.01, one that leaves it through z = 2
+#: (there a_z = z/2 − cos(y + 0.3z) > 0)
+CART_X0 = np.array([[0.1, 0.2, 0.3], [-0.3, 0.1, 0.5], [0.4, -0.5, -0.2], [0.0, 0.0, 1.99]])
+
+
+def _native_vs_jax(m, x0, h, n=100):
+    sn = vp.integrate(m, x0, h, n, progress=False, backend="native")
+    sj = vp.integrate(m, x0, h, n, progress=False, backend="jax")
+    assert sn.stats["backend"] == "native" and sj.stats["backend"] == "jax"
+    assert np.array_equal(np.asarray(sn.status), np.asarray(sj.status))
+    assert np.array_equal(np.asarray(sn.failed_step), np.asarray(sj.failed_step))
+    assert np.all(np.isfinite(np.asarray(sn.xs)))
+    return sn, float(np.max(np.abs(np.asarray(sn.xs) - np.asarray(sj.xs))))
+
+
+def _methods(field):
+    se = vp.scheme(field, "SE+SE", recover=False)
+    relabelled = next(c for c in vp.cases() if c.cls == "SE+SE" and c != se.case)
+    return {
+        "SE+SE": se,
+        f"SE+SE {relabelled}": vp.scheme(field, relabelled, recover=False),
+        "SE+SE order 2": vp.compose(se, order=2),
+        "DL+DL fast": vp.scheme(field, "DL+DL", recover=False, fast=True),
+        "SE+DL fast": vp.scheme(field, "SE+DL", recover=False, fast=True),
+        "RK4": vp.RK4(field),
+    }
+
+
+@pytest.mark.slow  # JAX compiles each method on the spline (~10 s each)
+@pytest.mark.parametrize("which", ["cartesian", "toroidal"])
+def test_native_equals_jax_after_100_steps_on_spline_fields(which, cart, stell):
+    """Every generated class on a Cartesian and a toroidal (coil stellarator) spline field: native
+    = JAX ≤ 1e-10 after 100 steps, same statuses and failed steps (the Cartesian line leaving
+    the grid: left_domain on both; RK4, which has no domain test, nonfinite on both)."""
+    field, x0, h = (cart, CART_X0, 0.01) if which == "cartesian" else (stell.field, stell.x0[:3], 0.02)
+    for name, m in _methods(field).items():
+        assert select_backend(m, "auto")[0] == "native", name
+        sn, err = _native_vs_jax(m, x0, h)
+        assert err <= 1e-10, (name, err)
+        st = np.asarray(sn.status)
+        if which == "cartesian":  # RK4 has no domain test (as on JAX): the NaN step is nonfinite
+            out = RESULTS.nonfinite if name == "RK4" else RESULTS.left_domain
+            assert list(st) == [RESULTS.successful] * 3 + [out], name
+        else:
+            assert np.all(st == RESULTS.successful), name
+
+
+def test_a_line_leaving_the_grid_stops_with_left_domain_natively(cart):
+    """The native step at the grid's face: the spline is NaN off the grid, the solve fails, and the
+    Euler point is off the grid — the lane stops with RESULTS.left_domain at its own step (the
+    semantics of ``Method._accept``), its state finite; the other lines run on."""
+    m = vp.scheme(cart, "SE+SE", recover=False)
+    xs, st, failed, _ = run_points(m, CART_X0, 0.01, np.arange(101))  # the kernel of integrate
+    assert list(st) == [RESULTS.successful] * 3 + [RESULTS.left_domain]
+    assert 0 <= failed[3] < 100 and list(failed[:3]) == [-1] * 3
+    assert np.all(np.isfinite(xs))
+    assert cart.grid_potential.contains(xs[:, -1]).all()  # stopped at its last point on the grid
+    # the step that fails really leaves: its Euler point x + h a(x) is past z = 2
+    x = xs[3, -1]
+    assert x[2] + 0.01 * float(np.asarray(cart(x))[2]) > 2.0
+
+
+def test_a_second_grid_of_the_same_shape_reuses_the_compiled_kernel(cart):
+    """Other data (values, extent, hence origin and bounds) of the same structure: the same C
+    source, no compilation, the same library — and the kernel steps the second field (one step
+    is x + h a₂(x) + O(h²), far from the first field's)."""
+    m1 = vp.scheme(cart, "SE+SE", recover=False)
+    other = _cartesian(scale=1.7, half=2.5, shift=0.1)
+    m2 = vp.scheme(other, "SE+SE", recover=False)
+    (s1, d1), (s2, d2) = kernel_parts(m1), kernel_parts(m2)
+    assert s1 == s2 and d1.shape == d2.shape and not np.array_equal(d1, d2)
+    k1 = kernel_for(m1)
+    before = dict(nbuild.COUNTERS)
+    k2 = kernel_for(m2)
+    assert nbuild.COUNTERS["compiled"] == before["compiled"] and k2.lib is k1.lib
+    h, x0 = 1e-3, CART_X0[:3]
+    X1 = run_points(m1, x0, h, np.array([0, 1]))[0][:, -1]
+    X2 = run_points(m2, x0, h, np.array([0, 1]))[0][:, -1]
+    a1, a2 = np.asarray(cart(x0)), np.asarray(other(x0))
+    assert np.max(np.abs(X2 - x0 - h * a2)) <= 10 * h * h * np.max(np.abs(a2))
+    assert np.max(np.abs(X1 - x0 - h * a1)) <= 10 * h * h * np.max(np.abs(a1))
+    assert np.max(np.abs(X2 - X1)) > 100 * h * h * np.max(np.abs(a2))
+
+
+def test_auto_runs_spline_fields_natively_and_says_why_not_otherwise(cart):
+    assert select_backend(vp.scheme(cart, "SE+SE", recover=False), "auto") == (
+        "native", "auto: native available")
+    # a field given as a plain JAX callable: no spline, no SymPy — JAX, with the reason
+    f = vp.Field.from_callable(lambda x: x[..., [1, 2, 0]], box=((-1, 1),) * 3, name="shift")
+    name, why = select_backend(vp.scheme(f, "SE+SE", recover=False), "auto")
+    assert name == "jax" and "JAX callable" in why
+    # S1 on a nonlinear field is Quispel's correction map, whose integral is a quadrature here
+    name, why = select_backend(vp.scheme(cart, "S1", recover=False), "auto")
+    assert name == "jax" and "correction" in why
