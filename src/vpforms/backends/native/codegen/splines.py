@@ -18,7 +18,7 @@ and antiderivatives); the knots, cell polynomials, coefficients and scalars trav
 compiled kernel. Layout of ``fd``: slot j (in the order the emitter first meets the refs) is
 ``HS`` doubles at ``fd + HS·j``: a scalar's value, or a spline's header (offsets of its three knot
 vectors, three cell-polynomial tables and coefficients; m₁, m₂, m₃; the three periods, 0 for
-none); the arrays follow the headers.
+none; per axis (m − k)/(t_m − t_k), the interval guess); the arrays follow the headers.
 
 Evaluation in C (:data:`C_HELPERS`) is that of :mod:`vpforms.grids._bspline`: on a periodic axis
 x is wrapped into [t_k, t_k + T) (``jnp.mod``: fmod, + T where negative); on a non-periodic axis
@@ -339,20 +339,46 @@ def _axis(em: _Emission, ref: DataRef, a: int, k: int, arg: Any, n: int, printer
 
 
 def hoist(exprs: list[Any], z: Any, printer: Any) -> list[str]:
-    """Before a Newton loop in z: the axis computations (interval, basis) of the spline atoms of
-    ``exprs`` whose argument on that axis is free of z, emitted once in the current scope (the
-    loop's body then reuses them)."""
+    """Before a Newton loop in z, in the current scope (the loop's body then reuses them): the
+    spline atoms of ``exprs`` free of z, whole; for an atom whose argument moves with z on one
+    axis only, the interval and basis of its two other axes and a cache of the block contracted
+    over them (the coefficients along the moving axis in its current cell: an iteration that
+    stays in the cell costs one interval search, one basis and k + 1 products)."""
     em = _ACTIVE.get()
     if em is None:
         return []
     lines: list[str] = []
-    for at in sorted({a for e in exprs for a in sp.sympify(e).atoms(SplineAt)}, key=sp.default_sort_key):
-        ref, k = at.args[0], at.degrees
+    atoms = sorted({a for e in exprs for a in sp.sympify(e).atoms(SplineAt)}, key=sp.default_sort_key)
+    whole = [a for a in atoms if z not in a.free_symbols]
+    if whole:
+        more, vals = spline_calls(whole, "hz", printer)
+        lines += more
+        for a, v in zip(whole, vals):
+            em.scopes[-1][("atom", a)] = v
+    for at in atoms:
+        if z not in at.free_symbols:
+            continue
+        ref, k, o = at.args[0], at.degrees, at.orders
+        moving = [ax for ax in range(3) if z in at.args[3 + ax].free_symbols]
+        if len(moving) != 1:
+            continue
         for ax in range(3):
-            arg = at.args[3 + ax]
-            if z not in arg.free_symbols:
-                _axis(em, ref, ax, k[ax], arg, at.orders[ax], printer, lines)
+            if ax != moving[0]:
+                _axis(em, ref, ax, k[ax], at.args[3 + ax], o[ax], printer, lines)
+        key = _line_key(at, moving[0], printer)
+        if em.find(key) is None:
+            em.count += 1
+            q = f"ln{em.count}"
+            lines.append(f"double {q}_L[{k[moving[0]] + 1}]; int64_t {q}_c = -1;")
+            em.scopes[-1][key] = q
     return lines
+
+
+def _line_key(at: SplineAt, f: int, printer: Any) -> tuple:
+    """The cache of ``at``'s block contracted over every axis but f: the spline, f, the other
+    axes' arguments and orders."""
+    rest = tuple((ax, printer.doprint(e_sub(at.args[3 + ax])), at.orders[ax]) for ax in range(3) if ax != f)
+    return ("line", at.args[0], f, rest)
 
 
 def spline_calls(exprs: list[Any], tag: str, printer: Any) -> tuple[list[str], list[Any]]:
@@ -360,7 +386,8 @@ def spline_calls(exprs: list[Any], tag: str, printer: Any) -> tuple[list[str], l
     ``fd``. Per axis one interval search and one basis per derivative order serve every spline
     of the same knots at the same argument (and are reused from an enclosing scope); the
     coefficient block of a spline is contracted over axis 0 once per order along it, then over
-    axis 1 once per pair of orders (the sums :func:`vpforms.grids._bspline._contract` shares).
+    axis 1 once per pair of orders (the sums :func:`vpforms.grids._bspline._contract` shares);
+    an atom :func:`hoist` prepared is read, or contracted from its cached line.
     Returns the statements and ``exprs`` with the atoms replaced by their variables."""
     exprs = [sp.sympify(e) for e in exprs]
     atoms = sorted({a for e in exprs for a in e.atoms(SplineAt)}, key=sp.default_sort_key)
@@ -368,12 +395,32 @@ def spline_calls(exprs: list[Any], tag: str, printer: Any) -> tuple[list[str], l
         return [], exprs
     em = _em()
     groups: dict = {}
+    lines: list[str] = []
+    rep: dict = {}
     for a in atoms:
         if any(arg.atoms(SplineAt) for arg in a.args[3:]):
             raise ValueError("a spline evaluated at a spline is not generated natively")
+        known = em.find(("atom", a))
+        if known is not None:
+            rep[a] = known
+            continue
+        lined = [f for f in range(3) if em.find(_line_key(a, f, printer)) is not None]
+        if lined:  # contracted over the fixed axes once per cell of the moving one
+            f = lined[0]
+            q = em.find(_line_key(a, f, printer))
+            k, o = a.degrees, a.orders
+            ax = [_axis(em, a.args[0], b, k[b], a.args[3 + b], o[b], printer, lines) for b in range(3)]
+            fixed = [ax[b][1] for b in range(3) if b != f]
+            idx = ", ".join(ax[b][0] for b in range(3))
+            em.count += 1
+            v = sp.Symbol(f"{tag}_l{em.count}")
+            lines += [f"if ({ax[f][0]} != {q}_c) {{ vp_line(fd, fd + {HS * em.slot(a.args[0])}, "
+                      f"{k[0]}, {k[1]}, {k[2]}, {idx}, {f}, {fixed[0]}, {fixed[1]}, {q}_L); "
+                      f"{q}_c = {ax[f][0]}; }}",
+                      f"double {v} = vp_c2({k[f]}, {ax[f][1]}, {q}_L);"]
+            rep[a] = v
+            continue
         groups.setdefault((a.args[0], a.args[3:]), []).append(a)
-    lines: list[str] = []
-    rep: dict = {}
     for (ref, args), members in groups.items():
         k = members[0].degrees
         em.count += 1
@@ -429,6 +476,10 @@ def field_data(refs: Sequence[DataRef]) -> np.ndarray | None:
             head[j, 6] = put(c)
             head[j, 7:10] = c.shape
             head[j, 10:13] = [0.0 if T is None else float(T) for T in o.periods]
+            for ax, (t, k) in enumerate(zip(o.knots, o.degrees)):  # the interval guess of vp_cell
+                t = np.asarray(t)
+                m = t.size - k - 1
+                head[j, 13 + ax] = (m - k) / (t[m] - t[k])
         else:
             head[j, 0] = float(o)
     return np.concatenate([head.ravel(), *arrays])
@@ -451,10 +502,17 @@ static inline _VP_INLINE int64_t vp_cell(const double *fd, const double *h, int 
     }
     double xs = x;
     if (!(T > 0.0) && !(x >= lo && x <= t[m])) x = NAN;
-    int64_t i = k, hi = m - 1;  /* the largest i in [k, m - 1] with t_i <= xs (k if none, or NaN) */
-    while (i < hi) {
-        int64_t mid = (i + hi + 1) >> 1;
-        if (t[mid] <= xs) i = mid; else hi = mid - 1;
+    /* the largest i in [k, m - 1] with t_i <= xs (k if none, or NaN): from the interval a uniform
+       spacing of the base interval would give (h[13 + a] = (m - k) / (t_m - t_k)), walked to
+       the exact one (a step or two on a grid's near-uniform knots) */
+    int64_t i;
+    if (!(xs >= lo)) i = k;
+    else if (xs >= t[m - 1]) i = m - 1;
+    else {
+        double g = (xs - lo) * h[13 + a];
+        i = g < (double)(m - 1 - k) ? k + (int64_t)g : m - 1;
+        while (i < m - 1 && t[i + 1] <= xs) i++;
+        while (i > k && t[i] > xs) i--;
     }
     *y = x - t[i];
     return i;
@@ -485,12 +543,40 @@ static inline _VP_INLINE void vp_c0(const double *fd, const double *h, int k0, i
     const double *c = fd + (int64_t)h[6];
     int64_t m1 = (int64_t)h[8], m2 = (int64_t)h[9];
     const double *b = c + ((i0 - k0) * m1 + (i1 - k1)) * m2 + (i2 - k2);
-    for (int y = 0; y <= k1; y++)
-        for (int z = 0; z <= k2; z++) {
-            double s = 0.0;
-            for (int x = 0; x <= k0; x++) s += N0[x] * b[(x * m1 + y) * m2 + z];
-            P[y * (k2 + 1) + z] = s;
-        }
+    for (int j = 0; j < (k1 + 1) * (k2 + 1); j++) P[j] = 0.0;
+    for (int x = 0; x <= k0; x++)  /* innermost along the contiguous axis 2 */
+        for (int y = 0; y <= k1; y++)
+            for (int z = 0; z <= k2; z++) P[y * (k2 + 1) + z] += N0[x] * b[(x * m1 + y) * m2 + z];
+}
+
+/* the block contracted over every axis but f (Na, Nb: the bases of the other two, in axis order):
+   the k_f + 1 coefficients of the cell along axis f; the innermost loop runs along the
+   contiguous axis 2 */
+static inline _VP_INLINE void vp_line(const double *fd, const double *h, int k0, int k1, int k2,
+                                      int64_t i0, int64_t i1, int64_t i2, int f, const double *Na,
+                                      const double *Nb, double *L) {
+    const double *c = fd + (int64_t)h[6];
+    int64_t m1 = (int64_t)h[8], m2 = (int64_t)h[9];
+    const double *b = c + ((i0 - k0) * m1 + (i1 - k1)) * m2 + (i2 - k2);
+    if (f == 2) {
+        for (int z = 0; z <= k2; z++) L[z] = 0.0;
+        for (int x = 0; x <= k0; x++)
+            for (int y = 0; y <= k1; y++) {
+                double w = Na[x] * Nb[y];
+                const double *r = b + (x * m1 + y) * m2;
+                for (int z = 0; z <= k2; z++) L[z] += w * r[z];
+            }
+    } else {
+        int kf = f == 0 ? k0 : k1;
+        for (int j = 0; j <= kf; j++) L[j] = 0.0;
+        for (int x = 0; x <= k0; x++)
+            for (int y = 0; y <= k1; y++) {
+                const double *r = b + (x * m1 + y) * m2;
+                double s = 0.0;
+                for (int z = 0; z <= k2; z++) s += Nb[z] * r[z];
+                L[f == 0 ? x : y] += (f == 0 ? Na[y] : Na[x]) * s;
+            }
+    }
 }
 
 /* then over axis 1 with N1: V[c] */
