@@ -146,3 +146,14 @@ def test_bench_gpu_runs_on_any_jax_device(tmp_path):
     text = md.read_text()
     assert "vpforms SE+SE (closed form)" in text and "hand-written JAX three shears" in text
     assert "max |det J − 1| = " in text
+
+
+@pytest.mark.slow  # builds the coil stellarator and a tokamak spline, compiles 3 kernels and 2 JAX steps (~90 s)
+@pytest.mark.skipif(not _NATIVE_OK, reason=f"native backend unavailable: {_NATIVE_WHY}")
+def test_bench_native_splines_smoke(tmp_path):
+    text = _smoke("bench_native_splines", tmp_path)
+    rows = [r.split("|")[1:3] for r in text.splitlines() if r.startswith("| ") and "---" not in r][1:]
+    assert [(f.strip(), b.strip()) for f, b in rows] == [
+        ("tokamak (closed form)", "native"), ("tokamak (spline of A)", "native"),
+        ("coil_stellarator (spline of A)", "native"), ("tokamak (spline of A)", "jax"),
+        ("coil_stellarator (spline of A)", "jax")]

@@ -1,7 +1,7 @@
 """Backend selection for :func:`vpforms.integrate`: ``"jax"`` (XLA) or ``"native"`` (generated C).
 
 ``select_backend(method, backend) -> (name, reason)``: ``"auto"`` picks native when the method can
-be generated (symbolic field, supported class) and a C compiler is present, JAX otherwise;
+be generated (symbolic or spline field, supported class) and a C compiler is present, JAX otherwise;
 ``"native"`` raises :class:`NativeUnavailableError` saying why it cannot.
 """
 

@@ -1,4 +1,4 @@
-"""Method → C source for the native backend, in three steps (one module each):
+"""Method → C source for the native backend, in three steps (one module each), and the spline data:
 
 * :mod:`.potentials` — what a class supplies: its generating map at step h as SymPy expressions
   (φ, Φ in the generic order of eq:volpot, the case, the sign, the Newton controls), or the reason
@@ -6,6 +6,9 @@
 * :mod:`.plan` — one step of a method as a list of stages ``(stage, coefficient of h)``:
   relabelling (prop:trivperm) relabels a stage's case, adjunction (prop:switchperm) inverts the
   stages at −h in reverse order, compositions concatenate them;
+* :mod:`.splines` — spline vector potentials (:mod:`vpforms.grids`) as SymPy atoms of spline
+  evaluations, their C, and the run-time data array they read (a new grid of the same structure
+  reuses the compiled kernel);
 * :mod:`.emit` — C from the stages: the generic map's two scalar Newton solves per lane (closed
   form where the equation is affine in its unknown), RK4, and the block/SIMD/OpenMP kernel.
 """

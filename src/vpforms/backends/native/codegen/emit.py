@@ -38,10 +38,10 @@ import sympy as sp
 from ...._errors import RESULTS
 from ...._guard import FLOOR as GUARD_FLOOR
 from ...._methods._base import Method
-from ...._quadrature import GL_T, GLSum, _nodes_weights
 from ...._solution import describe
 from ....symbolic import _symbols as G
 from . import splines
+from .assign import _C, _assign, _gl_table
 from .cprinter import printer as _printer
 from .plan import plan
 from .potentials import (
@@ -71,59 +71,6 @@ _SIMD_DECLS = "".join(
     f'__attribute__((__simd__("notinbranch"))) double {f}(double{", double" if f == "pow" else ""});\n'
     for f in ("sin", "cos", "exp", "log", "pow")
 )
-
-# C variable names as SymPy symbols (no assumptions: printed by name)
-_C = {n: sp.Symbol(n) for n in ("x1", "x2", "x3", "y1", "y2", "y3", "Y2", "Y3", "z", "h")}
-
-
-def _assign(targets: list[str], exprs: list[Any], subs: dict, tag: str) -> list[str]:
-    """C statements ``double t = e;`` with common-subexpression elimination (sympy.cse); the
-    Gauss–Legendre sums in them first, by :func:`_gl_loops`."""
-    exprs = [sp.sympify(e).xreplace(subs) for e in exprs]
-    lines, exprs = _gl_loops(exprs, tag)
-    more, exprs = splines.spline_calls(exprs, tag, _printer)  # spline atoms: data read at run time
-    lines += more
-    syms = sp.numbered_symbols(f"{tag}_")
-    reps, red = sp.cse(exprs, symbols=syms)
-    lines += [f"double {s} = {_printer.doprint(e)};" for s, e in reps]
-    lines += [f"double {t} = {_printer.doprint(e)};" for t, e in zip(targets, red)]
-    return lines
-
-
-def _gl_table(n: int) -> str:
-    """The n-point Gauss–Legendre rule on [0, 1] as two static C arrays, the nodes and weights of
-    :func:`vpforms._quadrature._nodes_weights` printed exactly (``%.17g`` round-trips a double)."""
-    t, w = (", ".join(format(float(v), ".17g") for v in a) for a in _nodes_weights(n))
-    return (f"static const double VP_GL_T{n}[{n}] = {{{t}}};\n"
-            f"static const double VP_GL_W{n}[{n}] = {{{w}}};\n")
-
-
-def _gl_loops(exprs: list[Any], tag: str) -> tuple[list[str], list[Any]]:
-    """The :class:`~vpforms._quadrature.GLSum` s in ``exprs`` as C loops over the nodes.
-
-    Each distinct sum Σᵢ wᵢ fᵢ becomes an accumulator ``{tag}_gsK``; the sums of one rule share a
-    loop in which their integrands at t = tᵢ are evaluated together (one cse). Returns the loop
-    statements and ``exprs`` with the sums replaced by their accumulators."""
-    sums = sorted({q for e in exprs for q in sp.sympify(e).atoms(GLSum)}, key=sp.default_sort_key)
-    if not sums:
-        return [], exprs
-    acc = {q: sp.Symbol(f"{tag}_gs{k}") for k, q in enumerate(sums)}
-    lines = []
-    for n in sorted({q.n for q in sums}):
-        group = [q for q in sums if q.n == n]
-        t = sp.Symbol(f"{tag}_t{n}")
-        with splines.scope():  # the loop's body is a C block
-            body = _assign([f"{tag}_gf{n}_{k}" for k in range(len(group))],
-                           [q.integrand.xreplace({GL_T: t}) for q in group], {}, f"{tag}_g{n}")
-        # Σᵢ wᵢ f(tᵢ) in node order, as jnp.dot(w, f(t)) in vpforms._quadrature.line_integral
-        lines += [f"double {', '.join(f'{acc[q]} = 0.0' for q in group)};",
-                  f"for (int {tag}_k = 0; {tag}_k < {n}; {tag}_k++) {{",
-                  f"    double {t} = VP_GL_T{n}[{tag}_k], {tag}_w = VP_GL_W{n}[{tag}_k];",
-                  *(f"    {ln}" for ln in body),
-                  *(f"    {acc[q]} += {tag}_w * {tag}_gf{n}_{k};" for k, q in enumerate(group)),
-                  "}"]
-    return lines, [sp.sympify(e).xreplace(acc) for e in exprs]
-
 
 def _newton_c(var: str, z0: str, g_dg: list[str], opts: tuple, tag: str) -> list[str]:
     """newton_scalar (vpforms._newton) in C: same step, stopping rule, twist and divergence tests,

@@ -414,9 +414,9 @@ def spline_calls(exprs: list[Any], tag: str, printer: Any) -> tuple[list[str], l
             idx = ", ".join(ax[b][0] for b in range(3))
             em.count += 1
             v = sp.Symbol(f"{tag}_l{em.count}")
-            lines += [f"if ({ax[f][0]} != {q}_c) {{ vp_line(fd, fd + {HS * em.slot(a.args[0])}, "
-                      f"{k[0]}, {k[1]}, {k[2]}, {idx}, {f}, {fixed[0]}, {fixed[1]}, {q}_L); "
-                      f"{q}_c = {ax[f][0]}; }}",
+            lines += [(f"if ({ax[f][0]} != {q}_c) {{ vp_line(fd, fd + {HS * em.slot(a.args[0])}, "
+                       f"{k[0]}, {k[1]}, {k[2]}, {idx}, {f}, {fixed[0]}, {fixed[1]}, {q}_L); "
+                       f"{q}_c = {ax[f][0]}; }}"),
                       f"double {v} = vp_c2({k[f]}, {ax[f][1]}, {q}_L);"]
             rep[a] = v
             continue
