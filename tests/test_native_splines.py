@@ -146,3 +146,30 @@ def test_auto_runs_spline_fields_natively_and_says_why_not_otherwise(cart):
     # S1 on a nonlinear field is Quispel's correction map, whose integral is a quadrature here
     name, why = select_backend(vp.scheme(cart, "S1", recover=False), "auto")
     assert name == "jax" and "correction" in why
+
+
+@pytest.mark.slow  # JAX compiles RK4 on the spline (~9 s)
+def test_c_evaluation_equals_jax_on_knots_faces_and_far_round_the_torus(stell):
+    """One RK4 step (four evaluations of a = ∇×A, i.e. of A's first derivatives) from points on
+    knots, on the grid's faces, on the periodic seam and a thousand periods round: native = JAX
+    to rounding, the same statuses (a step leaving through a face: nonfinite on both)."""
+    f = stell.field
+    pot = f.inside.__self__  # the SplinePotential (its domain test)
+    s = pot.splines[1]
+    (u0, u1), (p0, p1), (z0, z1) = pot.grid_box
+    T = p1 - p0
+    tu, tp, tz = (np.asarray(t) for t in s.knots)
+    x0 = np.array([
+        [tu[6], tp[5], tz[7]],  # interior knots on every axis
+        [u0, 0.1, 0.0], [u1, 0.2, 0.01], [0.5 * (u0 + u1), 0.3, z0], [0.5 * (u0 + u1), 0.0, z1],
+        [tu[5], p0, 0.02], [tu[5], p1, 0.02],  # the seam, from both sides
+        [tu[8], 0.3 + 1000 * T, 0.03], [tu[8], -0.3 - 50 * T, -0.03],  # far round, both ways
+    ])
+    m = vp.RK4(f)
+    sn = vp.integrate(m, x0, 1e-3, 1, progress=False, backend="native")
+    sj = vp.integrate(m, x0, 1e-3, 1, progress=False, backend="jax")
+    assert np.array_equal(np.asarray(sn.status), np.asarray(sj.status))
+    Xn, Xj = np.asarray(sn.xs)[:, -1], np.asarray(sj.xs)[:, -1]
+    dn, dj = Xn - x0, Xj - x0  # the step, h·a(x) + O(h²): compared relative to its own size
+    assert np.max(np.abs(dn - dj)) <= 1e-12 * np.max(np.abs(dj))
+    assert np.all(np.asarray(sn.status)[[0, 5, 6, 7, 8]] == RESULTS.successful)
