@@ -64,6 +64,6 @@ def native_crossings(method, pts: np.ndarray, h: float, n_steps: int, surface, d
     arithmetic; where they could part (an ulp at a level) the JAX test decides which recorded steps
     count, as in the JAX scan."""
     c = run_events(method, pts, h, n_steps, surface_spec(surface), direction,
-                   lambda x, X: _crossing(surface, direction, x, X)[0], progress_cb, capacity)
+                   lambda x, X: _crossing(surface, direction, x, X)[0], progress_cb, capacity=capacity)
     cross, lvl = _crossing(surface, direction, c.before, c.after)
     return c, cross, lvl
