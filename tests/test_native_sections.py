@@ -20,8 +20,9 @@ from vpforms.backends import NativeUnavailableError
 from vpforms.backends.native import events as nevents
 from vpforms.backends.native.events import run_events
 from vpforms.diagnostics import poincare_section
-from vpforms.diagnostics._native_section import _crossing, surface_spec
+from vpforms.diagnostics._native_section import _crossing, native_locator, surface_spec
 from vpforms.diagnostics._surfaces import Plane
+from vpforms.diagnostics.poincare import _located
 from vpforms.fieldlines import toroidal_section
 
 from .test_native import _Fake
@@ -192,3 +193,24 @@ def test_no_compiler_falls_back_to_jax(abc, monkeypatch):
     monkeypatch.setenv("VPFORMS_NATIVE_DISABLE", "1")
     a = poincare_section(m, x0[:3], 0.1, 20, progress=False)
     assert a.backend == "jax" and "native not used" in a.backend_reason
+
+
+def test_native_locator_leaves_failing_steps_to_the_jax_locator(tokamak, capped):
+    """vp_locate flags a crossing whose step family fails somewhere (here the full step of lines 3
+    and 4 at h = 0.5) as undecided; those go to the JAX locator, which owns the fallback rules, and
+    the merged result is the all-JAX one: points, θ and fallback flags."""
+    h = 0.5
+    sol = vp.integrate(capped, tokamak.x0, h, 2, save_every=1, backend="native", progress=False)
+    assert list(sol.failed_step[3:]) == [1, 1] and np.all(sol.status[:3] == 0)
+    x = sol.xs[:, 1]  # the states before step 1; the level half-way in φ (lines 0–2), or just ahead
+    lvl = np.where(sol.status == 0, 0.5 * (sol.xs[:, 1, 1] + sol.xs[:, 2, 1]), x[:, 1] + 0.05)
+    surface = Plane(1, 0.0, 2 * math.pi)
+    Y, _, undecided = native_locator(capped, h, surface)(x, lvl)
+    assert list(undecided) == [False] * 3 + [True] * 2
+    args = (capped, surface, "step", 0, h, 0.0, {"axis": 1, "value": 0.0, "period": 2 * math.pi}, "native", "",
+            capped, x, np.ones(5, np.int64), lvl, np.arange(5), np.ones(5, np.int64), np.ones(5, np.int64), sol.status)
+    a = _located(*args, native=native_locator(capped, h, surface))
+    b = _located(*args)
+    assert np.max(np.abs(a.points - b.points)) <= 1e-10 and np.max(np.abs(a.theta - b.theta)) <= 1e-10
+    np.testing.assert_array_equal(a.fallback, b.fallback)
+    assert np.all(np.abs(a.points[:3] - Y[:3]) <= 1e-10) and np.all(a.points[:3, 1] == lvl[:3])  # on the plane

@@ -17,11 +17,11 @@ import numpy as np
 
 from .. import _config  # noqa: F401
 from ..backends.native.codegen.sections import KINDS
-from ..backends.native.events import Crossings, run_events
+from ..backends.native.events import Crossings, locate, run_events
 from ._common import _chunks, _pad
 from ._surfaces import Plane, ToroidalAngle
 
-__all__ = ["native_crossings", "surface_spec"]
+__all__ = ["native_crossings", "native_locator", "surface_spec"]
 
 
 def surface_spec(surface) -> tuple[int, int, float, float]:
@@ -67,3 +67,11 @@ def native_crossings(method, pts: np.ndarray, h: float, n_steps: int, surface, d
                    lambda x, X: _crossing(surface, direction, x, X)[0], progress_cb, capacity=capacity)
     cross, lvl = _crossing(surface, direction, c.before, c.after)
     return c, cross, lvl
+
+
+def native_locator(method, h: float, surface):
+    """(xs (M, 3), levels (M,)) -> (points, θ, undecided): the crossings located by the kernel's
+    ``vp_locate`` on the bare step family of ``method`` (undecided: an evaluation failed — for the
+    JAX locator, which owns the fallback rules). Where no evaluation fails the bare and the recovering
+    step families are the same map, so this serves both."""
+    return partial(locate, method, h, surface_spec(surface))

@@ -19,7 +19,7 @@ from .._recovery import bare_first, bare_method
 from ..backends import select_backend
 from ._common import _chunks, _pad
 from ._locate import illinois
-from ._native_section import native_crossings
+from ._native_section import native_crossings, native_locator
 from ._surfaces import Plane
 
 __all__ = ["PoincareSection", "poincare_section"]
@@ -161,22 +161,29 @@ def _refine_kernel(step_fn, surface, mode, x, lvl, h):
 
 
 def _located(method, surface, interpolation, direction, h, t0, meta, backend, reason, m, xs, ns, ls, ps, counts,
-             kept, status) -> PoincareSection:
+             kept, status, native=None) -> PoincareSection:
     """The :class:`PoincareSection` of the detected crossings — state before the step xs (M, 3), step
     ns, crossed level ls, particle ps — each located on the step family of ``m`` (``method`` or its
-    bare method): batched over all crossings, in fixed-size padded chunks (few compilations)."""
+    bare method): by ``native`` first where given (:func:`._native_section.native_locator`), and by
+    the JAX locator where it leaves a crossing undecided (or for all): batched, in fixed-size padded
+    chunks (few compilations)."""
     fn = _StepFn(m)
     hj = jnp.asarray(float(h))
     M = xs.shape[0]
     pts_out, thetas, fallback = np.zeros((M, 3)), np.zeros(M), np.zeros(M, dtype=bool)
-    R = min(1 << max(M - 1, 1).bit_length(), 2**14)  # power-of-two buckets: few compilations
-    for lo, hi in _chunks(M, R):
+    todo = np.arange(M)
+    if native is not None and M:
+        pts_out[:], thetas[:], undecided = native(xs, ls)
+        todo = np.flatnonzero(undecided)
+    R = min(1 << max(todo.size - 1, 1).bit_length(), 2**14)  # power-of-two buckets: few compilations
+    for lo, hi in _chunks(todo.size, R):
+        k = todo[lo:hi]
         Y, th, fb = _refine_kernel(
-            fn, surface, interpolation, jnp.asarray(_pad(xs[lo:hi], R)), jnp.asarray(_pad(ls[lo:hi, None], R)[:, 0]), hj
+            fn, surface, interpolation, jnp.asarray(_pad(xs[k], R)), jnp.asarray(_pad(ls[k, None], R)[:, 0]), hj
         )
-        pts_out[lo:hi] = np.asarray(Y)[: hi - lo]
-        thetas[lo:hi] = np.asarray(th)[: hi - lo]
-        fallback[lo:hi] = np.asarray(fb)[: hi - lo]
+        pts_out[k] = np.asarray(Y)[: hi - lo]
+        thetas[k] = np.asarray(th)[: hi - lo]
+        fallback[k] = np.asarray(fb)[: hi - lo]
     order = np.lexsort((ns, ps))
     return PoincareSection(
         points=pts_out[order],
@@ -198,10 +205,12 @@ def _located(method, surface, interpolation, direction, h, t0, meta, backend, re
     )
 
 
-def _native_section(method, pts, h, n_steps, surface, direction, cap, progress, label, located) -> PoincareSection:
+def _native_section(method, pts, h, n_steps, surface, direction, cap, interpolation, progress, label,
+                    located) -> PoincareSection:
     """The native trace (:func:`._native_section.native_crossings`: the kernel records the crossing
-    steps), then the location of those steps by ``located`` — on the bare step family, and again on
-    the recovering one where the JAX path would re-run with it (a step failed or was recovered, or a
+    steps), then the location of those steps by ``located`` — natively (``vp_locate``), the JAX
+    locator only where a native evaluation failed, on the bare step family, and again on the
+    recovering one where the JAX path would re-run with it (a step failed or was recovered, or a
     sub-step failed): the same crossings, at the same points, as the JAX section."""
     N = pts.shape[0]
     bar = _Bar(progress, N * n_steps, f"{label} (native)")
@@ -216,10 +225,11 @@ def _native_section(method, pts, h, n_steps, surface, direction, cap, progress, 
     keep = np.ones(line.size, bool) if cap is None else (np.arange(line.size) - first) < cap
     kept = np.bincount(line[keep], minlength=N).astype(np.int64)
     args = (xb[keep], step[keep], lvl[keep], line[keep], counts, kept, c.status.astype(np.int32))
+    native = native_locator(method, h, surface) if interpolation == "step" else None
     bare = bare_method(method)
-    out = located(bare, *args)
+    out = located(bare, *args, native=native)
     if bare is not method and (np.any(c.recovered) or np.any(c.status != RESULTS.successful) or np.any(out.fallback)):
-        out = located(method, *args)
+        out = located(method, *args, native=native)
     return out
 
 
@@ -314,7 +324,8 @@ def _section_on(method, pts, h, n_steps, surface, direction, max_crossings, inte
     backend, reason = select_backend(method, backend)
     located = partial(_located, method, surface, interpolation, direction, h, t0, meta, backend, reason)
     if backend == "native":
-        return _native_section(method, pts, h, n_steps, surface, direction, cap, progress, label, located)
+        return _native_section(method, pts, h, n_steps, surface, direction, cap, interpolation, progress, label,
+                               located)
     # segments of ≤ 1024 steps (≥ ~20 per chunk for a live bar); the crossing buffers are emptied
     # to the host after every segment, so memory does not grow with n_steps
     seg = max(1, min(n_steps, -(-n_steps // 20), 1024))

@@ -10,6 +10,8 @@ Overflow is never silent: the kernel returns how many crossings it found; when t
 buffers, the segment is run again from its starting states with buffers that large (``reruns``
 counts these). A step recovered through JAX is checked for a crossing here, by the caller's
 ``crossed`` (the JAX surface's own test).
+
+:func:`locate` solves the recorded crossings on the step family natively (``vp_locate``).
 """
 
 from __future__ import annotations
@@ -22,7 +24,7 @@ import numpy as np
 
 from .runner import CALLS, _advance_with_recovery, _start, kernel_for
 
-__all__ = ["Crossings", "Events", "run_events"]
+__all__ = ["Crossings", "Events", "locate", "run_events"]
 
 
 class Events:
@@ -111,3 +113,21 @@ def run_events(method: Any, pts: np.ndarray, h: float, n_steps: int, surface: tu
     order = np.lexsort((step, line))
     return Crossings(line=line[order], step=step[order], before=states[order, :3], after=states[order, 3:],
                      status=status, recovered=recovered, how=how, x=x, reruns=events.reruns)
+
+
+def locate(method: Any, h: float, surface: tuple[int, int, float, float], x: np.ndarray, level: np.ndarray,
+           engine: str = "auto") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The crossings of the levels ``level`` (M,) in the steps from x (M, 3), located natively on the
+    bare step family θ ↦ Ψ_{θh}(x) (``vp_locate``: the Illinois regula falsi of
+    :func:`vpforms.diagnostics._locate.illinois`): (points (M, 3), θ (M,), undecided (M,) — an
+    evaluation failed there: locate those with the JAX locator)."""
+    kernel = kernel_for(method, engine, "sections")
+    f = kernel._ffi
+    x = np.ascontiguousarray(x, dtype=np.float64)
+    level = np.ascontiguousarray(level, dtype=np.float64)
+    M = x.shape[0]
+    Y, theta, undecided = np.empty((M, 3)), np.empty(M), np.empty(M, np.int32)
+    kernel.lib.lib.vp_locate(M, f.cast("double *", x.ctypes.data), f.cast("double *", level.ctypes.data),
+                             float(h), int(surface[0]), int(surface[1]), f.cast("double *", Y.ctypes.data),
+                             f.cast("double *", theta.ctypes.data), f.cast("int32_t *", undecided.ctypes.data))
+    return Y, theta, undecided.astype(bool)
