@@ -146,3 +146,12 @@ def test_bench_gpu_runs_on_any_jax_device(tmp_path):
     text = md.read_text()
     assert "vpforms SE+SE (closed form)" in text and "hand-written JAX three shears" in text
     assert "max |det J − 1| = " in text
+
+
+@pytest.mark.skipif(not _NATIVE_OK, reason=f"native backend unavailable: {_NATIVE_WHY}")
+def test_bench_native_sections_smoke(tmp_path, monkeypatch):
+    monkeypatch.setenv("VPFORMS_NATIVE_CACHE", str(tmp_path / "cache"))
+    text = _smoke("bench_native_sections", tmp_path)
+    labels = _row_labels(text)
+    assert any("tokamak" in lab for lab in labels) and any("ABC" in lab for lab in labels)
+    assert "section / trace" in text and "JAX section" in text

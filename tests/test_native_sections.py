@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 
+import jax.numpy as jnp
 import numpy as np
 import pytest
 
@@ -196,21 +197,23 @@ def test_no_compiler_falls_back_to_jax(abc, monkeypatch):
 
 
 def test_native_locator_leaves_failing_steps_to_the_jax_locator(tokamak, capped):
-    """vp_locate flags a crossing whose step family fails somewhere (here the full step of lines 3
-    and 4 at h = 0.5) as undecided; those go to the JAX locator, which owns the fallback rules, and
-    the merged result is the all-JAX one: points, θ and fallback flags."""
+    """vp_locate flags a crossing whose step family fails somewhere as undecided; those go to the
+    JAX locator, which owns the fallback rules, and the merged result is the all-JAX one: points, θ
+    and fallback flags. Here (Newton capped at 4 iterations, h = 0.5) the sub-steps θh of line 4
+    fail from θ = 0.9 on, and its level is put 95 % of the way along its step."""
     h = 0.5
-    sol = vp.integrate(capped, tokamak.x0, h, 2, save_every=1, backend="native", progress=False)
-    assert list(sol.failed_step[3:]) == [1, 1] and np.all(sol.status[:3] == 0)
-    x = sol.xs[:, 1]  # the states before step 1; the level half-way in φ (lines 0–2), or just ahead
-    lvl = np.where(sol.status == 0, 0.5 * (sol.xs[:, 1, 1] + sol.xs[:, 2, 1]), x[:, 1] + 0.05)
+    x = vp.integrate(capped, tokamak.x0, h, 1, save_every=1, backend="native", progress=False).xs[:, 1]
+    X, st = (np.asarray(v) for v in capped.step_with_status(jnp.asarray(x), h))  # what the JAX locator takes
+    s90 = np.asarray(capped.step_with_status(jnp.asarray(x), 0.9 * h)[1])
+    assert s90[4] != 0 and np.all(st[:3] == 0) and np.all(np.isfinite(X))
+    lvl = x[:, 1] + np.array([0.5, 0.5, 0.5, 0.5, 0.95]) * (X[:, 1] - x[:, 1])
     surface = Plane(1, 0.0, 2 * math.pi)
-    Y, _, undecided = native_locator(capped, h, surface)(x, lvl)
-    assert list(undecided) == [False] * 3 + [True] * 2
+    Y, th, undecided = native_locator(capped, h, surface)(x, X, lvl)
+    assert list(undecided[:3]) == [False] * 3 and undecided[4]
     args = (capped, surface, "step", 0, h, 0.0, {"axis": 1, "value": 0.0, "period": 2 * math.pi}, "native", "",
-            capped, x, np.ones(5, np.int64), lvl, np.arange(5), np.ones(5, np.int64), np.ones(5, np.int64), sol.status)
-    a = _located(*args, native=native_locator(capped, h, surface))
+            capped, x, np.ones(5, np.int64), lvl, np.arange(5), np.ones(5, np.int64), np.ones(5, np.int64), st)
+    a = _located(*args, native=(Y, th, undecided))
     b = _located(*args)
     assert np.max(np.abs(a.points - b.points)) <= 1e-10 and np.max(np.abs(a.theta - b.theta)) <= 1e-10
     np.testing.assert_array_equal(a.fallback, b.fallback)
-    assert np.all(np.abs(a.points[:3] - Y[:3]) <= 1e-10) and np.all(a.points[:3, 1] == lvl[:3])  # on the plane
+    assert np.all(a.points[~undecided, 1] == lvl[~undecided])  # the decided ones: on the plane

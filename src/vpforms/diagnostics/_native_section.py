@@ -70,8 +70,8 @@ def native_crossings(method, pts: np.ndarray, h: float, n_steps: int, surface, d
 
 
 def native_locator(method, h: float, surface):
-    """(xs (M, 3), levels (M,)) -> (points, θ, undecided): the crossings located by the kernel's
-    ``vp_locate`` on the bare step family of ``method`` (undecided: an evaluation failed — for the
-    JAX locator, which owns the fallback rules). Where no evaluation fails the bare and the recovering
-    step families are the same map, so this serves both."""
+    """(x (M, 3), X (M, 3), levels (M,)) -> (points, θ, undecided): the crossings in the steps x → X
+    located by the kernel's ``vp_locate`` on the bare step family of ``method`` (undecided: an
+    evaluation failed — for the JAX locator, which owns the fallback rules). Where no evaluation
+    fails the bare and the recovering step families are the same map, so one location serves both."""
     return partial(locate, method, h, surface_spec(surface))

@@ -164,17 +164,17 @@ def _located(method, surface, interpolation, direction, h, t0, meta, backend, re
              kept, status, native=None) -> PoincareSection:
     """The :class:`PoincareSection` of the detected crossings — state before the step xs (M, 3), step
     ns, crossed level ls, particle ps — each located on the step family of ``m`` (``method`` or its
-    bare method): by ``native`` first where given (:func:`._native_section.native_locator`), and by
-    the JAX locator where it leaves a crossing undecided (or for all): batched, in fixed-size padded
-    chunks (few compilations)."""
+    bare method) by the JAX locator, batched in fixed-size padded chunks (few compilations); with
+    ``native`` = (points, θ, undecided) already located natively
+    (:func:`._native_section.native_locator`), only the undecided ones."""
     fn = _StepFn(m)
     hj = jnp.asarray(float(h))
     M = xs.shape[0]
     pts_out, thetas, fallback = np.zeros((M, 3)), np.zeros(M), np.zeros(M, dtype=bool)
     todo = np.arange(M)
-    if native is not None and M:
-        pts_out[:], thetas[:], undecided = native(xs, ls)
-        todo = np.flatnonzero(undecided)
+    if native is not None:
+        pts_out[:], thetas[:] = native[0], native[1]
+        todo = np.flatnonzero(native[2])
     R = min(1 << max(todo.size - 1, 1).bit_length(), 2**14)  # power-of-two buckets: few compilations
     for lo, hi in _chunks(todo.size, R):
         k = todo[lo:hi]
@@ -218,14 +218,17 @@ def _native_section(method, pts, h, n_steps, surface, direction, cap, interpolat
         c, cross, lvl = native_crossings(method, pts, h, n_steps, surface, direction, bar.update)
     finally:
         bar.close()
-    line, step, xb, lvl = c.line[cross], c.step[cross], c.before[cross], lvl[cross]
+    line, step, xb, xa, lvl = c.line[cross], c.step[cross], c.before[cross], c.after[cross], lvl[cross]
     counts = np.bincount(line, minlength=N).astype(np.int64)  # every detected crossing
     # each line's crossings are numbered 0, 1, … in step order (sorted by line, then step)
     first = np.searchsorted(line, line, side="left")
     keep = np.ones(line.size, bool) if cap is None else (np.arange(line.size) - first) < cap
     kept = np.bincount(line[keep], minlength=N).astype(np.int64)
     args = (xb[keep], step[keep], lvl[keep], line[keep], counts, kept, c.status.astype(np.int32))
-    native = native_locator(method, h, surface) if interpolation == "step" else None
+    native = None
+    if interpolation == "step":  # located natively once (the bare and recovering families agree there)
+        Y, th, undecided = native_locator(method, h, surface)(xb[keep], xa[keep], lvl[keep])
+        native = (Y, th, undecided | c.recovered_step[cross][keep])  # a recovered step: the JAX family
     bare = bare_method(method)
     out = located(bare, *args, native=native)
     if bare is not method and (np.any(c.recovered) or np.any(c.status != RESULTS.successful) or np.any(out.fallback)):

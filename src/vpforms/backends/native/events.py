@@ -34,7 +34,7 @@ class Events:
                  crossed: Callable[[np.ndarray, np.ndarray], np.ndarray], capacity: int):
         self.surface, self.direction, self.crossed = surface, int(direction), crossed
         self.reruns = 0
-        self._parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+        self._parts: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
         self._alloc(max(1, int(capacity)))
 
     def _alloc(self, cap: int) -> None:
@@ -59,28 +59,31 @@ class Events:
         """Steps n → n+1 of lines ``idx`` taken through JAX (from x to X): their crossings."""
         k = np.asarray(self.crossed(x, X), bool)
         if k.any():
-            self._keep(idx[k], n[k], np.concatenate([x[k], X[k]], axis=1))
+            self._keep(idx[k], n[k], np.concatenate([x[k], X[k]], axis=1), True)
 
-    def _keep(self, line, step, states) -> None:
-        self._parts.append((line.copy(), step.copy(), states.copy()))
+    def _keep(self, line, step, states, recovered=False) -> None:
+        self._parts.append((line.copy(), step.copy(), states.copy(), np.full(line.size, recovered)))
 
-    def collected(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(line (M,), step (M,), states (M, 6)) of every crossing so far, in no particular order."""
+    def collected(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(line (M,), step (M,), states (M, 6), recovered (M,): a JAX-recovered step) of every
+        crossing so far, in no particular order."""
         if not self._parts:
-            return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 6))
+            return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 6)), np.zeros(0, bool)
         return tuple(np.concatenate(p) for p in zip(*self._parts))  # type: ignore[return-value]
 
 
 @dataclass(frozen=True)
 class Crossings:
     """What :func:`run_events` returns: the crossings sorted by (line, step) — line, step, the
-    states before and after the step — and per line the final status and recovered-step count, the
-    recovered steps by kind (``how``), the final states, and the overflow re-runs."""
+    states before and after the step, whether the step was recovered through JAX — and per line the
+    final status and recovered-step count, the recovered steps by kind (``how``), the final states,
+    and the overflow re-runs."""
 
     line: np.ndarray
     step: np.ndarray
     before: np.ndarray
     after: np.ndarray
+    recovered_step: np.ndarray
     status: np.ndarray
     recovered: np.ndarray
     how: dict
@@ -109,25 +112,26 @@ def run_events(method: Any, pts: np.ndarray, h: float, n_steps: int, surface: tu
         if progress_cb is not None:
             progress_cb(N * int(end - done))
         done = int(end)
-    line, step, states = events.collected()
+    line, step, states, rec = events.collected()
     order = np.lexsort((step, line))
     return Crossings(line=line[order], step=step[order], before=states[order, :3], after=states[order, 3:],
-                     status=status, recovered=recovered, how=how, x=x, reruns=events.reruns)
+                     recovered_step=rec[order], status=status, recovered=recovered, how=how, x=x, reruns=events.reruns)
 
 
-def locate(method: Any, h: float, surface: tuple[int, int, float, float], x: np.ndarray, level: np.ndarray,
-           engine: str = "auto") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The crossings of the levels ``level`` (M,) in the steps from x (M, 3), located natively on the
-    bare step family θ ↦ Ψ_{θh}(x) (``vp_locate``: the Illinois regula falsi of
+def locate(method: Any, h: float, surface: tuple[int, int, float, float], x: np.ndarray, X: np.ndarray,
+           level: np.ndarray, engine: str = "auto") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The crossings of the levels ``level`` (M,) in the steps x → X (M, 3), located natively on the
+    bare step family θ ↦ Ψ_{θh}(x), Ψ_h(x) = X (``vp_locate``: the Illinois regula falsi of
     :func:`vpforms.diagnostics._locate.illinois`): (points (M, 3), θ (M,), undecided (M,) — an
     evaluation failed there: locate those with the JAX locator)."""
     kernel = kernel_for(method, engine, "sections")
     f = kernel._ffi
-    x = np.ascontiguousarray(x, dtype=np.float64)
+    x, X = (np.ascontiguousarray(a, dtype=np.float64).reshape(-1, 3) for a in (x, X))
     level = np.ascontiguousarray(level, dtype=np.float64)
     M = x.shape[0]
     Y, theta, undecided = np.empty((M, 3)), np.empty(M), np.empty(M, np.int32)
-    kernel.lib.lib.vp_locate(M, f.cast("double *", x.ctypes.data), f.cast("double *", level.ctypes.data),
+    kernel.lib.lib.vp_locate(M, f.cast("double *", x.ctypes.data), f.cast("double *", X.ctypes.data),
+                             f.cast("double *", level.ctypes.data),
                              float(h), int(surface[0]), int(surface[1]), f.cast("double *", Y.ctypes.data),
                              f.cast("double *", theta.ctypes.data), f.cast("int32_t *", undecided.ctypes.data))
     return Y, theta, undecided.astype(bool)

@@ -19,7 +19,8 @@ larger buffer — the return value is the capacity that suffices.
 
 ``vp_locate`` locates recorded crossings on the step family θ ↦ Ψ_{θh}(x) natively: the Illinois
 regula falsi of :func:`vpforms.diagnostics._locate.illinois` (same updates, same stopping rules),
-each evaluation the exact step ``vp_step_exact`` at θh, then the point put on the plane (planes).
+from the bracket [0, 1] with the step the trace took as Ψ_h(x), each evaluation the exact step
+``vp_step_exact`` at θh, then the point put on the plane (planes).
 A crossing where any evaluation fails (status or non-finite) is flagged ``undecided``: the caller
 locates it with the JAX locator, which owns the fallback rules.
 """
@@ -31,7 +32,7 @@ __all__ = ["KINDS", "SECTIONS_CDEF", "sections_entry"]
 SECTIONS_CDEF = ("int64_t vp_sections(int64_t N, double *x, int32_t *status, int64_t *n, int64_t n_target, "
                  "double h, int32_t kind, int32_t axis, double value, double period, int32_t direction, "
                  "int64_t cap, int64_t *ev_line, int64_t *ev_step, double *ev_x);\n"
-                 "void vp_locate(int64_t M, double *x, double *lvl, double h, int32_t kind, int32_t axis, "
+                 "void vp_locate(int64_t M, double *x, double *X, double *lvl, double h, int32_t kind, int32_t axis, "
                  "double *Y, double *theta, int32_t *undecided);")
 
 #: the surface kinds of ``vp_sections``
@@ -91,36 +92,32 @@ static inline double vp_sec_gap(int32_t kind, int32_t axis, double l, double y1,
     return (axis == 0 ? y1 : axis == 1 ? y2 : y3) - l;
 }
 static inline double vp_sign(double v) { return v > 0 ? 1.0 : v < 0 ? -1.0 : v == 0 ? 0.0 : v; }
-void vp_locate(int64_t M, double *x, double *lvl, double h, int32_t kind, int32_t axis,
+void vp_locate(int64_t M, double *x, double *X, double *lvl, double h, int32_t kind, int32_t axis,
                double *Y, double *theta, int32_t *undecided) {
     #pragma omp parallel for schedule(dynamic, 64)
     for (int64_t e = 0; e < M; e++) {
         double x1 = x[3 * e], x2 = x[3 * e + 1], x3 = x[3 * e + 2], l = lvl[e];
         double tol = 1e-15 * (1.0 + fabs(l));
-        double g0 = vp_sec_gap(kind, axis, l, x1, x2, x3);
         /* a, b: the bracket; fa: Illinois-scaled g(a), ga: g(a) itself; (a1, a2, a3), (b1, b2, b3):
-           the payloads Ψ_{ah}(x), Ψ_{bh}(x). Pass −1 evaluates b = 1 (the full step), passes 0…99 are
-           the iterations; one call site of the (inlined) step */
-        double a = 0.0, fa = g0, ga = g0, b = 1.0, fb = 0.0, th = 1.0;
-        double a1 = x1, a2 = x2, a3 = x3, b1 = x1, b2 = x2, b3 = x3;
-        int bad = 0;
-        for (int it = -1; it < 100; it++) {
-            double t1, t2, t3;
-            bad = vp_step_exact(x1, x2, x3, th * h, &t1, &t2, &t3) != 0 || !_VP_FINITE(t1, t2, t3);
-            double ft = vp_sec_gap(kind, axis, l, t1, t2, t3);
-            int done;
-            if (it < 0) done = fabs(g0) <= tol || fabs(ft) <= tol;
-            else {  /* Illinois: halve the retained end's value when the same end is kept twice */
-                if (vp_sign(ft) == vp_sign(fb)) fa = fa * 0.5;
-                else { a = b; fa = fb; ga = fb; a1 = b1; a2 = b2; a3 = b3; }
-                done = fabs(ft) <= tol || fabs(th - a) <= 1e-15;
-            }
-            b = th; fb = ft; b1 = t1; b2 = t2; b3 = t3;
-            if (done || bad) break;
+           the payloads Ψ_{ah}(x), Ψ_{bh}(x) — at b = 1 the step the trace took (X) */
+        double g0 = vp_sec_gap(kind, axis, l, x1, x2, x3);
+        double a = 0.0, fa = g0, ga = g0, a1 = x1, a2 = x2, a3 = x3;
+        double b = 1.0, b1 = X[3 * e], b2 = X[3 * e + 1], b3 = X[3 * e + 2];
+        double fb = vp_sec_gap(kind, axis, l, b1, b2, b3);
+        int bad = 0, done = fabs(g0) <= tol || fabs(fb) <= tol;
+        for (int it = 0; it < 100 && !done && !bad; it++) {
             double den = fb - fa;
-            th = den != 0 ? (a * fb - b * fa) / den : 0.5 * (a + b);
+            double th = den != 0 ? (a * fb - b * fa) / den : 0.5 * (a + b);
             double lo = a < b ? a : b, hi = a < b ? b : a;
             th = th < lo ? lo : th > hi ? hi : th;
+            double t1, t2, t3;  /* the one call site of the (inlined) step */
+            bad = vp_step_exact(x1, x2, x3, th * h, &t1, &t2, &t3) != 0 || !_VP_FINITE(t1, t2, t3);
+            double ft = vp_sec_gap(kind, axis, l, t1, t2, t3);
+            /* Illinois: halve the retained end's value when the same end is kept twice */
+            if (vp_sign(ft) == vp_sign(fb)) fa = fa * 0.5;
+            else { a = b; fa = fb; ga = fb; a1 = b1; a2 = b2; a3 = b3; }
+            done = fabs(ft) <= tol || fabs(th - a) <= 1e-15;
+            b = th; fb = ft; b1 = t1; b2 = t2; b3 = t3;
         }
         int first = fabs(ga) < fabs(fb);
         double y1 = first ? a1 : b1, y2 = first ? a2 : b2, y3 = first ? a3 : b3;
