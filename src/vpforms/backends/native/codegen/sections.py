@@ -19,8 +19,9 @@ larger buffer — the return value is the capacity that suffices.
 
 ``vp_locate`` locates recorded crossings on the step family θ ↦ Ψ_{θh}(x) natively: the Illinois
 regula falsi of :func:`vpforms.diagnostics._locate.illinois` (same updates, same stopping rules),
-from the bracket [0, 1] with the step the trace took as Ψ_h(x), each evaluation the exact step
-``vp_step_exact`` at θh, then the point put on the plane (planes).
+from the bracket [0, 1] with the step the trace took as Ψ_h(x), each evaluation the kernel's step
+at θh (the vectorised pass over a block of crossings iterated in lockstep, the exact one where it
+does not decide), then the point put on the plane (planes).
 A crossing where any evaluation fails (status or non-finite) is flagged ``undecided``: the caller
 locates it with the JAX locator, which owns the fallback rules.
 """
@@ -65,15 +66,34 @@ int64_t vp_sections(int64_t N, double *x, int32_t *status, int64_t *n, int64_t n
     for (int64_t b = 0; b < nb; b++) {
 @LOAD@        double q[B], p1[B], p2[B], p3[B];
         int64_t n0[B];
+        int cr[B];
         for (int i = 0; i < B; i++) q[i] = vp_sec_q(kind, axis, value, period, a1[i], a2[i], a3[i]);
         for (int64_t k = nmin; k < n_target; k++) {
+            #pragma omp simd
             for (int i = 0; i < B; i++) { p1[i] = a1[i]; p2[i] = a2[i]; p3[i] = a3[i]; n0[i] = nn[i]; }
-@STEP@            for (int i = 0; i < m; i++) {
-                if (nn[i] == n0[i]) continue;  /* no step taken: done, frozen, or failed just now */
-                double qn = vp_sec_q(kind, axis, value, period, a1[i], a2[i], a3[i]);
-                double d = vp_sec_dlevel(kind, value, period, q[i], qn);
-                q[i] = qn;
-                if (!(direction > 0 ? d > 0 : direction < 0 ? d < 0 : d != 0)) continue;
+@STEP@            /* the section function after the step and its change; a lane that took no step (done,
+               frozen, failed just now) crosses nothing. Vectorised for the planes; atan2 lane by lane */
+            int any_cross = 0;
+            if (kind == 2) for (int i = 0; i < B; i++) {
+                double qn = atan2(a2[i], a1[i]), d = vp_sec_dlevel(kind, value, period, q[i], qn);
+                int adv = nn[i] != n0[i];
+                cr[i] = adv & (direction > 0 ? d > 0 : direction < 0 ? d < 0 : d != 0);
+                any_cross |= cr[i];
+                q[i] = adv ? qn : q[i];
+            } else {
+                const double *c = axis == 0 ? a1 : axis == 1 ? a2 : a3;
+                #pragma omp simd reduction(|:any_cross)
+                for (int i = 0; i < B; i++) {
+                    double s = c[i] - value;
+                    double qn = kind == 0 ? (s >= 0 ? 1.0 : 0.0) : floor(s / period), d = qn - q[i];
+                    int adv = nn[i] != n0[i];
+                    cr[i] = adv & (direction > 0 ? d > 0 : direction < 0 ? d < 0 : d != 0);
+                    any_cross |= cr[i];
+                    q[i] = adv ? qn : q[i];
+                }
+            }
+            if (any_cross) for (int i = 0; i < m; i++) {
+                if (!cr[i]) continue;
                 int64_t e;
                 #pragma omp atomic capture
                 e = count++;
@@ -94,37 +114,71 @@ static inline double vp_sec_gap(int32_t kind, int32_t axis, double l, double y1,
 static inline double vp_sign(double v) { return v > 0 ? 1.0 : v < 0 ? -1.0 : v == 0 ? 0.0 : v; }
 void vp_locate(int64_t M, double *x, double *X, double *lvl, double h, int32_t kind, int32_t axis,
                double *Y, double *theta, int32_t *undecided) {
-    #pragma omp parallel for schedule(dynamic, 64)
-    for (int64_t e = 0; e < M; e++) {
-        double x1 = x[3 * e], x2 = x[3 * e + 1], x3 = x[3 * e + 2], l = lvl[e];
-        double tol = 1e-15 * (1.0 + fabs(l));
+    int64_t nb = (M + B - 1) / B;
+    #pragma omp parallel for schedule(dynamic, 1)
+    for (int64_t blk = 0; blk < nb; blk++) {  /* B crossings a block, iterated in lockstep */
+        int64_t lo = blk * B;
+        int m = (int)(M - lo < B ? M - lo : B);
         /* a, b: the bracket; fa: Illinois-scaled g(a), ga: g(a) itself; (a1, a2, a3), (b1, b2, b3):
            the payloads Ψ_{ah}(x), Ψ_{bh}(x) — at b = 1 the step the trace took (X) */
-        double g0 = vp_sec_gap(kind, axis, l, x1, x2, x3);
-        double a = 0.0, fa = g0, ga = g0, a1 = x1, a2 = x2, a3 = x3;
-        double b = 1.0, b1 = X[3 * e], b2 = X[3 * e + 1], b3 = X[3 * e + 2];
-        double fb = vp_sec_gap(kind, axis, l, b1, b2, b3);
-        int bad = 0, done = fabs(g0) <= tol || fabs(fb) <= tol;
-        for (int it = 0; it < 100 && !done && !bad; it++) {
-            double den = fb - fa;
-            double th = den != 0 ? (a * fb - b * fa) / den : 0.5 * (a + b);
-            double lo = a < b ? a : b, hi = a < b ? b : a;
-            th = th < lo ? lo : th > hi ? hi : th;
-            double t1, t2, t3;  /* the one call site of the (inlined) step */
-            bad = vp_step_exact(x1, x2, x3, th * h, &t1, &t2, &t3) != 0 || !_VP_FINITE(t1, t2, t3);
-            double ft = vp_sec_gap(kind, axis, l, t1, t2, t3);
-            /* Illinois: halve the retained end's value when the same end is kept twice */
-            if (vp_sign(ft) == vp_sign(fb)) fa = fa * 0.5;
-            else { a = b; fa = fb; ga = fb; a1 = b1; a2 = b2; a3 = b3; }
-            done = fabs(ft) <= tol || fabs(th - a) <= 1e-15;
-            b = th; fb = ft; b1 = t1; b2 = t2; b3 = t3;
+        double x1[B], x2[B], x3[B], l[B], tol[B], a[B], fa[B], ga[B], a1[B], a2[B], a3[B];
+        double b[B], fb[B], b1[B], b2[B], b3[B], th[B], t1[B], t2[B], t3[B];
+        int live[B], bad[B], redo[B];
+        for (int i = 0; i < B; i++) {
+            int64_t e = lo + (i < m ? i : 0);  /* padding lanes: a copy of the first, never live */
+            x1[i] = x[3 * e]; x2[i] = x[3 * e + 1]; x3[i] = x[3 * e + 2]; l[i] = lvl[e];
+            tol[i] = 1e-15 * (1.0 + fabs(l[i]));
+            double g0 = vp_sec_gap(kind, axis, l[i], x1[i], x2[i], x3[i]);
+            a[i] = 0.0; fa[i] = g0; ga[i] = g0; a1[i] = x1[i]; a2[i] = x2[i]; a3[i] = x3[i];
+            b[i] = 1.0; b1[i] = X[3 * e]; b2[i] = X[3 * e + 1]; b3[i] = X[3 * e + 2];
+            fb[i] = vp_sec_gap(kind, axis, l[i], b1[i], b2[i], b3[i]);
+            bad[i] = 0;
+            live[i] = (i < m) && !(fabs(g0) <= tol[i] || fabs(fb[i]) <= tol[i]);
         }
-        int first = fabs(ga) < fabs(fb);
-        double y1 = first ? a1 : b1, y2 = first ? a2 : b2, y3 = first ? a3 : b3;
-        if (kind != 2) { if (axis == 0) y1 = l; else if (axis == 1) y2 = l; else y3 = l; }  /* snap */
-        Y[3 * e] = y1; Y[3 * e + 1] = y2; Y[3 * e + 2] = y3;
-        theta[e] = first ? a : b;
-        undecided[e] = bad;
+        for (int it = 0; it < 100; it++) {
+            int any = 0;
+            for (int i = 0; i < B; i++) any |= live[i];
+            if (!any) break;
+            for (int i = 0; i < B; i++) {  /* the regula falsi iterate, clipped to the bracket */
+                double den = fb[i] - fa[i];
+                double t = den != 0 ? (a[i] * fb[i] - b[i] * fa[i]) / den : 0.5 * (a[i] + b[i]);
+                double lo_ = a[i] < b[i] ? a[i] : b[i], hi_ = a[i] < b[i] ? b[i] : a[i];
+                th[i] = t < lo_ ? lo_ : t > hi_ ? hi_ : t;
+            }
+            #pragma omp simd
+            for (int i = 0; i < B; i++) {  /* Ψ_{θh}(x): the kernel's step, as vp_run takes it */
+                double T1, T2, T3;
+                double good = vp_step_fast(x1[i], x2[i], x3[i], th[i] * h, &T1, &T2, &T3);
+                t1[i] = T1; t2[i] = T2; t3[i] = T3;
+                redo[i] = live[i] & !(good > 0.5);
+            }
+            int anyr = 0;
+            for (int i = 0; i < B; i++) anyr |= redo[i];
+            if (anyr) for (int i = 0; i < B; i++) {
+                if (!redo[i]) continue;
+                double T1, T2, T3;
+                int code = vp_step_exact(x1[i], x2[i], x3[i], th[i] * h, &T1, &T2, &T3);
+                t1[i] = T1; t2[i] = T2; t3[i] = T3;
+                if (code != 0 || !_VP_FINITE(T1, T2, T3)) { bad[i] = 1; live[i] = 0; }  /* for JAX */
+            }
+            for (int i = 0; i < B; i++) {
+                if (!live[i]) continue;
+                double ft = vp_sec_gap(kind, axis, l[i], t1[i], t2[i], t3[i]);
+                /* Illinois: halve the retained end's value when the same end is kept twice */
+                if (vp_sign(ft) == vp_sign(fb[i])) fa[i] = fa[i] * 0.5;
+                else { a[i] = b[i]; fa[i] = fb[i]; ga[i] = fb[i]; a1[i] = b1[i]; a2[i] = b2[i]; a3[i] = b3[i]; }
+                live[i] = !(fabs(ft) <= tol[i] || fabs(th[i] - a[i]) <= 1e-15);
+                b[i] = th[i]; fb[i] = ft; b1[i] = t1[i]; b2[i] = t2[i]; b3[i] = t3[i];
+            }
+        }
+        for (int i = 0; i < m; i++) {
+            int first = fabs(ga[i]) < fabs(fb[i]);
+            double y1 = first ? a1[i] : b1[i], y2 = first ? a2[i] : b2[i], y3 = first ? a3[i] : b3[i];
+            if (kind != 2) { if (axis == 0) y1 = l[i]; else if (axis == 1) y2 = l[i]; else y3 = l[i]; }  /* snap */
+            Y[3 * (lo + i)] = y1; Y[3 * (lo + i) + 1] = y2; Y[3 * (lo + i) + 2] = y3;
+            theta[lo + i] = first ? a[i] : b[i];
+            undecided[lo + i] = bad[i];
+        }
     }
 }
 """
