@@ -64,7 +64,6 @@ class NativeKernel:
             int(n_target), float(h), int(save_every), int(n_total), out, int(n_saves),
         )
 
-
     def sections(self, x: np.ndarray, status: np.ndarray, n: np.ndarray, n_target: int, h: float,
                  surface: tuple[int, int, float, float], direction: int, line: np.ndarray,
                  step: np.ndarray, states: np.ndarray) -> int:
