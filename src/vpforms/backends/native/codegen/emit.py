@@ -42,6 +42,7 @@ from ...._quadrature import GL_T, GLSum, _nodes_weights
 from ...._solution import describe
 from ....symbolic import _symbols as G
 from .cprinter import printer as _printer
+from .lanes import lane_code
 from .plan import plan
 from .potentials import (
     CORR_S,
@@ -459,61 +460,6 @@ _FAST_NONE = """static inline _VP_INLINE double vp_step_fast(double x1, double x
 """
 
 
-def _lanes() -> dict[str, str]:
-    """The lane code every kernel entry shares (``vp_run``, and ``vp_sections`` of :mod:`.sections`):
-    a block's lanes loaded into L1 (``load``), one step of all its live lanes (``step``: a lane is
-    live while its status is 0 and n < n_target), stored back (``store``)."""
-    nf = RESULTS.nonfinite
-    return {
-        "load": """        int64_t lo = b * B;
-        int m = (int)(N - lo < B ? N - lo : B);
-        double a1[B], a2[B], a3[B];
-        int32_t st[B];
-        int64_t nn[B];
-        int redo[B];
-        int64_t nmin = n_target;
-        for (int i = 0; i < B; i++) {
-            if (i < m) {
-                a1[i] = x[3 * (lo + i)]; a2[i] = x[3 * (lo + i) + 1]; a3[i] = x[3 * (lo + i) + 2];
-                st[i] = status[lo + i]; nn[i] = n[lo + i];
-                if (st[i] == 0 && nn[i] < nmin) nmin = nn[i];
-            } else {
-                a1[i] = a2[i] = a3[i] = 0.0; st[i] = 1; nn[i] = n_target;  /* padding lane: inactive */
-            }
-        }
-""",
-        "step": f"""            #pragma omp simd
-            for (int i = 0; i < B; i++) {{  /* vectorised: the lanes the fast pass decides */
-                double X1, X2, X3;
-                double good = vp_step_fast(a1[i], a2[i], a3[i], h, &X1, &X2, &X3);
-                int act = (st[i] == 0) & (nn[i] < n_target);
-                int ok = act & (good > 0.5);
-                a1[i] = ok ? X1 : a1[i]; a2[i] = ok ? X2 : a2[i]; a3[i] = ok ? X3 : a3[i];
-                nn[i] += ok;
-                redo[i] = act & !(good > 0.5);
-            }}
-            int any = 0;
-            for (int i = 0; i < B; i++) any |= redo[i];
-            /* the others, exactly (status, frozen on failure); the guard matters: gcc vectorises
-               this loop with masks, i.e. it costs a full step of the block when entered */
-            if (any) for (int i = 0; i < B; i++) {{
-                if (!redo[i]) continue;
-                double X1, X2, X3;
-                int code = vp_step_exact(a1[i], a2[i], a3[i], h, &X1, &X2, &X3);
-                int inok = _VP_FINITE(a1[i], a2[i], a3[i]), fin = _VP_FINITE(X1, X2, X3);
-                code = !inok ? {nf} : code ? code : fin ? 0 : {nf};
-                if (code == 0) {{ a1[i] = X1; a2[i] = X2; a3[i] = X3; nn[i] += 1; }}
-                else st[i] = code;
-            }}
-""",
-        "store": """        for (int i = 0; i < m; i++) {
-            x[3 * (lo + i)] = a1[i]; x[3 * (lo + i) + 1] = a2[i]; x[3 * (lo + i) + 2] = a3[i];
-            status[lo + i] = st[i]; n[lo + i] = nn[i];
-        }
-""",
-    }
-
-
 def kernel_source(method: Any, engine: str = "auto", entry: str = "run") -> str:
     """The complete C source of ``vp_run`` for ``method`` (see :data:`CDEF`); with
     ``entry="sections"`` of ``vp_sections`` instead (:mod:`.sections`, :data:`.sections.SECTIONS_CDEF`:
@@ -554,7 +500,7 @@ def kernel_source(method: Any, engine: str = "auto", entry: str = "run") -> str:
         fns[kind] = "".join(_stage_fn(fn, body.split("\n"), fixed) for body, fn in names.items())
         steps[kind] = _step_fn(f"vp_step_{kind}", calls, fixed, _guard_c(field, kappa, fixed))
     fns, steps = fns["fast"] + fns["exact"], steps["fast"] + steps["exact"]
-    lanes = _lanes()
+    lanes = lane_code()
     # the Gauss–Legendre rules the quadrature potentials loop over (_gl_loops)
     tables = "".join(_gl_table(n) for n in sorted({int(k) for k in re.findall(r"VP_GL_T(\d+)\[", fns)}))
     return f"""
