@@ -157,3 +157,12 @@ def test_bench_native_splines_smoke(tmp_path):
         ("tokamak (closed form)", "native"), ("tokamak (spline of A)", "native"),
         ("coil_stellarator (spline of A)", "native"), ("tokamak (spline of A)", "jax"),
         ("coil_stellarator (spline of A)", "jax")]
+
+
+@pytest.mark.skipif(not _NATIVE_OK, reason=f"native backend unavailable: {_NATIVE_WHY}")
+def test_bench_native_sections_smoke(tmp_path, monkeypatch):
+    monkeypatch.setenv("VPFORMS_NATIVE_CACHE", str(tmp_path / "cache"))
+    text = _smoke("bench_native_sections", tmp_path)
+    labels = _row_labels(text)
+    assert any("tokamak" in lab for lab in labels) and any("ABC" in lab for lab in labels)
+    assert "section / trace" in text and "JAX section" in text

@@ -16,10 +16,12 @@ from .. import _config  # noqa: F401
 from .._errors import RESULTS
 from .._integrate import _check_run, describe
 from .._progress import _Bar
-from .._recovery import bare_first
+from .._recovery import bare_first, bare_method
+from ..backends import select_backend
 from ..backends.jax_runner import _StepFn, auto_chunk_size
 from ._common import _chunks, _pad
 from ._locate import illinois
+from ._native_section import native_crossings, native_locator
 from ._surfaces import Plane
 
 __all__ = ["PoincareSection", "poincare_section"]
@@ -36,7 +38,8 @@ class PoincareSection:
     not kept: beyond ``max_crossings`` or a full segment buffer); ``interpolation`` and
     ``interpolation_order`` say how they were located; ``fallback`` (M,) marks the crossings that
     ``interpolation="step"`` could not locate on the step family (a failed sub-step) and that are
-    the chord point instead (order 1, not on the plane): ``n_fallback`` counts them.
+    the chord point instead (order 1, not on the plane): ``n_fallback`` counts them. ``backend``
+    ("jax" or "native") traced the orbits, for ``backend_reason``.
     """
 
     points: np.ndarray
@@ -55,6 +58,8 @@ class PoincareSection:
     method: str
     status: np.ndarray
     fallback: np.ndarray
+    backend: str = "jax"
+    backend_reason: str = ""
 
     @property
     def n_fallback(self) -> int:
@@ -157,6 +162,82 @@ def _refine_kernel(step_fn, surface, mode, x, lvl, h):
     return jax.vmap(one)(x, lvl)
 
 
+def _located(method, surface, interpolation, direction, h, t0, meta, backend, reason, m, xs, ns, ls, ps, counts,
+             kept, status, native=None) -> PoincareSection:
+    """The :class:`PoincareSection` of the detected crossings — state before the step xs (M, 3), step
+    ns, crossed level ls, particle ps — each located on the step family of ``m`` (``method`` or its
+    bare method) by the JAX locator, batched in fixed-size padded chunks (few compilations); with
+    ``native`` = (points, θ, undecided) already located natively
+    (:func:`._native_section.native_locator`), only the undecided ones."""
+    fn = _StepFn(m)
+    hj = jnp.asarray(float(h))
+    M = xs.shape[0]
+    pts_out, thetas, fallback = np.zeros((M, 3)), np.zeros(M), np.zeros(M, dtype=bool)
+    todo = np.arange(M)
+    if native is not None:
+        pts_out[:], thetas[:] = native[0], native[1]
+        todo = np.flatnonzero(native[2])
+    R = min(1 << max(todo.size - 1, 1).bit_length(), 2**14)  # power-of-two buckets: few compilations
+    for lo, hi in _chunks(todo.size, R):
+        k = todo[lo:hi]
+        Y, th, fb = _refine_kernel(
+            fn, surface, interpolation, jnp.asarray(_pad(xs[k], R)), jnp.asarray(_pad(ls[k, None], R)[:, 0]), hj
+        )
+        pts_out[k] = np.asarray(Y)[: hi - lo]
+        thetas[k] = np.asarray(th)[: hi - lo]
+        fallback[k] = np.asarray(fb)[: hi - lo]
+    order = np.lexsort((ns, ps))
+    return PoincareSection(
+        points=pts_out[order],
+        particle=ps[order].astype(np.int64),
+        step=ns[order].astype(np.int64),
+        theta=thetas[order],
+        t=t0 + (ns[order] + thetas[order]) * float(h),
+        counts=counts,
+        dropped=int(np.sum(counts - kept)),
+        direction=direction,
+        **meta,
+        interpolation=interpolation,
+        interpolation_order=_interp_order(method, interpolation),
+        method=describe(method),
+        status=status,
+        fallback=fallback[order],
+        backend=backend,
+        backend_reason=reason,
+    )
+
+
+def _native_section(method, pts, h, n_steps, surface, direction, cap, interpolation, progress, label,
+                    located) -> PoincareSection:
+    """The native trace (:func:`._native_section.native_crossings`: the kernel records the crossing
+    steps), then the location of those steps by ``located`` — natively (``vp_locate``), the JAX
+    locator only where a native evaluation failed, on the bare step family, and again on the
+    recovering one where the JAX path would re-run with it (a step failed or was recovered, or a
+    sub-step failed): the same crossings, at the same points, as the JAX section."""
+    N = pts.shape[0]
+    bar = _Bar(progress, N * n_steps, f"{label} (native)")
+    try:
+        c, cross, lvl = native_crossings(method, pts, h, n_steps, surface, direction, bar.update)
+    finally:
+        bar.close()
+    line, step, xb, xa, lvl = c.line[cross], c.step[cross], c.before[cross], c.after[cross], lvl[cross]
+    counts = np.bincount(line, minlength=N).astype(np.int64)  # every detected crossing
+    # each line's crossings are numbered 0, 1, … in step order (sorted by line, then step)
+    first = np.searchsorted(line, line, side="left")
+    keep = np.ones(line.size, bool) if cap is None else (np.arange(line.size) - first) < cap
+    kept = np.bincount(line[keep], minlength=N).astype(np.int64)
+    args = (xb[keep], step[keep], lvl[keep], line[keep], counts, kept, c.status.astype(np.int32))
+    native = None
+    if interpolation == "step":  # located natively once (the bare and recovering families agree there)
+        Y, th, undecided = native_locator(method, h, surface)(xb[keep], xa[keep], lvl[keep])
+        native = (Y, th, undecided | c.recovered_step[cross][keep])  # a recovered step: the JAX family
+    bare = bare_method(method)
+    out = located(bare, *args, native=native)
+    if bare is not method and (np.any(c.recovered) or np.any(c.status != RESULTS.successful) or np.any(out.fallback)):
+        out = located(method, *args, native=native)
+    return out
+
+
 def _interp_order(method: Any, interpolation: str) -> str:
     if interpolation == "linear":
         return "1 (chord; error O(h²))"
@@ -180,6 +261,7 @@ def poincare_section(
     t0: float = 0.0,
     chunk_size: int | None = None,
     progress: bool | str = "auto",
+    backend: str = "auto",
 ) -> PoincareSection:
     """Non-terminating crossings of the plane x_axis = value (+ k·period) by the particles' orbits.
 
@@ -205,11 +287,19 @@ def poincare_section(
           O(h^{p+1}) — interpolation of order p for a method of order p — and it lies on the plane.
           Where a sub-step Ψ_{θh} fails, the chord point is used and flagged in ``fallback``.
         * ``"linear"``: the chord x_n + θ(x_{n+1} − x_n), interpolation order 1 (error O(h²)).
+    backend:
+        ``"auto"`` (default) traces natively where :func:`vpforms.integrate` would (the method can be
+        generated, a C compiler is present), else with JAX; ``"jax"``, ``"native"`` (an error saying
+        why where it cannot). The result's ``backend`` and ``backend_reason`` say which ran.
 
     Notes
     -----
-    The detection runs inside the ``lax.scan`` of the orbit (device memory O(chunk · 256) per
+    JAX: the detection runs inside the ``lax.scan`` of the orbit (device memory O(chunk · 256) per
     segment, independent of n_steps); the location runs afterwards, batched over all crossings.
+    Native: the kernel records the steps where the section function changes level (line, step,
+    states; :mod:`vpforms.backends.native.events`) and only those are located, by the same batched
+    JAX location on the method's step family: the same points (to rounding) and the same crossings.
+    The native trace keeps every crossing (no segment buffer drops them; ``chunk_size`` is unused).
     """
     if axis not in (0, 1, 2):
         raise ValueError(f"axis must be 0, 1 or 2 (0-based), got {axis}")
@@ -225,21 +315,26 @@ def poincare_section(
     surface = Plane(axis, float(value), None if period is None else float(period))
     return _section_on(method, pts, h, n_steps, surface, direction, max_crossings, interpolation, t0,
                        chunk_size, progress, "Poincaré section",
-                       dict(axis=axis, value=float(value), period=surface.period))
+                       dict(axis=axis, value=float(value), period=surface.period), backend)
 
 
 def _section_on(method, pts, h, n_steps, surface, direction, max_crossings, interpolation, t0, chunk_size,
-                progress, label, meta) -> PoincareSection:
+                progress, label, meta, backend="auto") -> PoincareSection:
     """The crossings of ``surface`` (:mod:`._surfaces`) by the orbits of pts (validated), as a
-    :class:`PoincareSection` carrying ``meta`` (axis, value, period)."""
+    :class:`PoincareSection` carrying ``meta`` (axis, value, period), traced by ``backend``."""
     N = pts.shape[0]
+    cap = None if max_crossings is None else int(max_crossings)
+    if cap is not None and cap < 0:
+        raise ValueError(f"max_crossings must be ≥ 0, got {max_crossings}")
+    backend, reason = select_backend(method, backend)
+    located = partial(_located, method, surface, interpolation, direction, h, t0, meta, backend, reason)
+    if backend == "native":
+        return _native_section(method, pts, h, n_steps, surface, direction, cap, interpolation, progress, label,
+                               located)
     # segments of ≤ 1024 steps (≥ ~20 per chunk for a live bar); the crossing buffers are emptied
     # to the host after every segment, so memory does not grow with n_steps
     seg = max(1, min(n_steps, -(-n_steps // 20), 1024))
     K = seg // 4 + 8  # buffer per particle and segment: a crossing every ≤ 4 steps still fits
-    cap = None if max_crossings is None else int(max_crossings)
-    if cap is not None and cap < 0:
-        raise ValueError(f"max_crossings must be ≥ 0, got {max_crossings}")
     C = min(N, chunk_size or auto_chunk_size(N, 2 * K))
 
     def trace(m):  # the section traced with the step of m (method's labels)
@@ -286,35 +381,7 @@ def _section_on(method, pts, h, n_steps, surface, direction, max_crossings, inte
         ns = np.concatenate(cn) if cn else np.zeros(0, np.int64)
         ls = np.concatenate(cl) if cl else np.zeros(0)
         ps = np.concatenate(cp) if cp else np.zeros(0, np.int64)
-
-        # locate: batched over all crossings, in fixed-size padded chunks (one compilation)
-        M = xs.shape[0]
-        pts_out, thetas, fallback = np.zeros((M, 3)), np.zeros(M), np.zeros(M, dtype=bool)
-        R = min(1 << max(M - 1, 1).bit_length(), 2**14)  # power-of-two buckets: few compilations
-        for lo, hi in _chunks(M, R):
-            Y, th, fb = _refine_kernel(
-                fn, surface, interpolation, jnp.asarray(_pad(xs[lo:hi], R)), jnp.asarray(_pad(ls[lo:hi, None], R)[:, 0]), hj
-            )
-            pts_out[lo:hi] = np.asarray(Y)[: hi - lo]
-            thetas[lo:hi] = np.asarray(th)[: hi - lo]
-            fallback[lo:hi] = np.asarray(fb)[: hi - lo]
-        order = np.lexsort((ns, ps))
-        return PoincareSection(
-            points=pts_out[order],
-            particle=ps[order].astype(np.int64),
-            step=ns[order].astype(np.int64),
-            theta=thetas[order],
-            t=t0 + (ns[order] + thetas[order]) * float(h),
-            counts=counts,
-            dropped=int(np.sum(counts - kept)),
-            direction=direction,
-            **meta,
-            interpolation=interpolation,
-            interpolation_order=_interp_order(method, interpolation),
-            method=describe(method),
-            status=status,
-            fallback=fallback[order],
-        )
+        return located(m, xs, ns, ls, ps, counts, kept, status)
 
     # a recovering method: the bare scan, and the recovering one only where a bare step (or a
     # locating sub-step) failed

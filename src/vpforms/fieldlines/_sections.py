@@ -79,7 +79,7 @@ def section_surface(field: Any, phi: float, nfp: int):
 def toroidal_section(method: Any, x0: Any, h: float, n_steps: int, phi: float = 0.0, nfp: int = 1, *,
                      direction: int = 0, max_crossings: int | None = None, interpolation: str = "step",
                      t0: float = 0.0, chunk_size: int | None = None,
-                     progress: bool | str = "auto") -> ToroidalSection:
+                     progress: bool | str = "auto", backend: str = "auto") -> ToroidalSection:
     """Crossings of φ = phi (mod 2π/nfp) by the field lines from x0, located on the method's step family.
 
     Works for fields in Cartesian coordinates (major axis x₃, φ = atan2(x₂, x₁)) and in the toroidal
@@ -91,7 +91,8 @@ def toroidal_section(method: Any, x0: Any, h: float, n_steps: int, phi: float = 
     the major axis (always the case for a step that follows the field).
 
     The result's ``transit`` numbers a line's crossings from 0; with nfp > 1 a line crosses nfp
-    half-planes per toroidal turn.
+    half-planes per toroidal turn. ``backend`` as for :func:`~vpforms.diagnostics.poincare_section`
+    (``"auto"``: native where the method can be generated; ``section.backend`` says which ran).
     """
     if direction not in (-1, 0, 1):
         raise ValueError(f"direction must be -1, 0 or +1, got {direction}")
@@ -103,7 +104,7 @@ def toroidal_section(method: Any, x0: Any, h: float, n_steps: int, phi: float = 
     axis = 1 if isinstance(surface, Plane) else -1
     sec = _section_on(method, pts, h, n_steps, surface, direction, max_crossings, interpolation, t0, chunk_size,
                       progress, f"section φ = {surface.value:.4g}",
-                      {"axis": axis, "value": surface.value, "period": surface.period})
+                      {"axis": axis, "value": surface.value, "period": surface.period}, backend)
     p = sec.points
     if isinstance(surface, Plane):
         R, Z, ph = np.sqrt(2.0 * p[:, 0]), p[:, 2], p[:, 1]

@@ -23,6 +23,7 @@ from ..._recovery import bare_method, count_how, recover_points
 from ..._solution import make_solution, saved_steps
 from .build import build
 from .codegen import CDEF, kernel_parts
+from .codegen.sections import SECTIONS_CDEF
 
 __all__ = ["NativeKernel", "integrate_native", "run_points", "run_saving"]
 
@@ -33,12 +34,13 @@ CALLS = 20
 class NativeKernel:
     """The compiled ``vp_run`` of one method (built on first use, cached on disk) and the field's
     run-time data ``fd`` (a spline's knots and coefficients; None without: NULL is passed), so
-    that a new grid of the same structure reuses the compiled kernel."""
+    that a new grid of the same structure reuses the compiled kernel; with ``entry="sections"``
+    its ``vp_sections`` and ``vp_locate`` instead (:mod:`.codegen.sections`, :meth:`sections`)."""
 
-    def __init__(self, method: Any, engine: str = "auto"):
+    def __init__(self, method: Any, engine: str = "auto", entry: str = "run"):
         self.method = method
-        self.source, self.data = kernel_parts(method, engine)
-        self.lib = build(self.source, CDEF)
+        self.source, self.data = kernel_parts(method, engine, entry)
+        self.lib = build(self.source, CDEF if entry == "run" else SECTIONS_CDEF)
         from cffi import FFI
 
         self._ffi = FFI()
@@ -62,29 +64,61 @@ class NativeKernel:
             f.cast("int32_t *", status.ctypes.data),
             f.cast("int64_t *", n.ctypes.data),
             int(n_target), float(h), int(save_every), int(n_total), out, int(n_saves),
-            f.NULL if self.data is None else f.cast("double *", self.data.ctypes.data),
+            self._fd(),
         )
 
+    def _fd(self):
+        """The field's run-time data for the kernel (``const double *fd``; NULL without)."""
+        f = self._ffi
+        return f.NULL if self.data is None else f.cast("double *", self.data.ctypes.data)
 
-_kernels: dict[tuple[int, str], tuple[Any, NativeKernel]] = {}
-def kernel_for(method: Any, engine: str = "auto") -> NativeKernel:
-    hit = _kernels.get((id(method), engine))
+    def sections(self, x: np.ndarray, status: np.ndarray, n: np.ndarray, n_target: int, h: float,
+                 surface: tuple[int, int, float, float], direction: int, line: np.ndarray,
+                 step: np.ndarray, states: np.ndarray) -> int:
+        """:meth:`advance` (no saves), recording the crossings of ``surface`` = (kind, axis, value,
+        period) into line (C,), step (C,), states (C, 6) (before, after the step): returns the number
+        of crossings, which exceeds C = ``line.size`` when the buffers overflowed (then re-run from
+        the same states with buffers that large)."""
+        f = self._ffi
+        kind, axis, value, period = surface
+        return int(self.lib.lib.vp_sections(
+            x.shape[0],
+            f.cast("double *", x.ctypes.data),
+            f.cast("int32_t *", status.ctypes.data),
+            f.cast("int64_t *", n.ctypes.data),
+            int(n_target), float(h), int(kind), int(axis), float(value), float(period), int(direction),
+            int(line.size),
+            f.cast("int64_t *", line.ctypes.data),
+            f.cast("int64_t *", step.ctypes.data),
+            f.cast("double *", states.ctypes.data),
+            self._fd(),
+        ))
+
+
+_kernels: dict[tuple[int, str, str], tuple[Any, NativeKernel]] = {}
+def kernel_for(method: Any, engine: str = "auto", entry: str = "run") -> NativeKernel:
+    hit = _kernels.get((id(method), engine, entry))
     if hit is None or hit[0] is not method:
-        hit = (method, NativeKernel(method, engine))
-        _kernels[(id(method), engine)] = hit
+        hit = (method, NativeKernel(method, engine, entry))
+        _kernels[(id(method), engine, entry)] = hit
     return hit[1]
 
 
-def _advance_with_recovery(kernel, method, x, status, n, recovered, n_target, h, how, saving=None):
+def _advance_with_recovery(kernel, method, x, status, n, recovered, n_target, h, how, saving=None,
+                           events=None):
     """Advance natively to n_target; recover failed steps lazily as the JAX backend does
     (:mod:`vpforms._recovery`: the same alternatives, in the same order) and go on natively.
     ``saving`` = (save_every, n_total, xs): the kernel writes the saves (:meth:`NativeKernel.advance`);
-    a recovered step's own save is written here."""
+    a recovered step's own save is written here. ``events`` (:class:`.events.Events`): the kernel
+    records section crossings instead of saving; a recovered step is checked for one here."""
     lazy = bare_method(method) is not method
     save_every, n_total, xs = saving if saving is not None else (0, 0, None)
     while True:
         before = status.copy()
-        kernel.advance(x, status, n, n_target, h, save_every, n_total, xs)
+        if events is None:
+            kernel.advance(x, status, n, n_target, h, save_every, n_total, xs)
+        else:
+            events.advance(kernel, x, status, n, n_target, h)
         idx = np.flatnonzero((before == RESULTS.successful) & (status != RESULTS.successful))
         # a non-finite state fails every alternative too (each maps the same point): not tried
         idx = idx[np.all(np.isfinite(x[idx]), axis=1)]
@@ -96,6 +130,8 @@ def _advance_with_recovery(kernel, method, x, status, n, recovered, n_target, h,
         g = idx[good]
         if g.size == 0:
             return
+        if events is not None:  # the recovered step n → n+1, from x (before) to X
+            events.recovered(g, n[g], x[g], X[good])
         x[g] = X[good]
         status[g] = RESULTS.successful
         n[g] += 1

@@ -43,6 +43,7 @@ from ....symbolic import _symbols as G
 from . import splines
 from .assign import _C, _assign, _gl_table
 from .cprinter import printer as _printer
+from .lanes import lane_code
 from .plan import plan
 from .potentials import (
     CORR_S,
@@ -55,6 +56,7 @@ from .potentials import (
     field_exprs,
     field_reason,
 )
+from .sections import sections_entry
 
 __all__ = ["BLOCK", "CDEF", "kernel_parts", "kernel_source"]
 
@@ -437,15 +439,17 @@ _FAST_NONE = """static inline _VP_INLINE double vp_step_fast(double x1, double x
 """
 
 
-def kernel_source(method: Any, engine: str = "auto") -> str:
-    """The complete C source of ``vp_run`` for ``method`` (see :data:`CDEF`); see
-    :func:`kernel_parts`."""
-    return kernel_parts(method, engine)[0]
+def kernel_source(method: Any, engine: str = "auto", entry: str = "run") -> str:
+    """The complete C source of ``vp_run`` for ``method`` (see :data:`CDEF`); with
+    ``entry="sections"`` of ``vp_sections`` instead (:mod:`.sections`, :data:`.sections.SECTIONS_CDEF`:
+    the same steps, recording the crossings of a section surface). See :func:`kernel_parts`."""
+    return kernel_parts(method, engine, entry)[0]
 
 
-def kernel_parts(method: Any, engine: str = "auto") -> tuple[str, Any]:
-    """(the C source of ``vp_run`` for ``method``, its run-time data ``fd``: the flat array of
-    :func:`.splines.field_data`, or None for a field without data).
+def kernel_parts(method: Any, engine: str = "auto", entry: str = "run") -> tuple[str, Any]:
+    """(the C source of ``vp_run`` — or, with ``entry="sections"``, of ``vp_sections`` — for
+    ``method``, its run-time data ``fd``: the flat array of :func:`.splines.field_data`, or None
+    for a field without data).
 
     ``engine="newton"`` iterates Newton on every solve, also where the equation is affine in its
     unknown (the same map; used to measure the engine against the closed form).
@@ -456,12 +460,14 @@ def kernel_parts(method: Any, engine: str = "auto") -> tuple[str, Any]:
     solves of :func:`vpforms._newton.newton_scalar`), which gives it its exact status."""
     if engine not in ("auto", "newton"):
         raise ValueError(f"engine must be 'auto' or 'newton', got {engine!r}")
+    if entry not in ("run", "sections"):
+        raise ValueError(f"entry must be 'run' or 'sections', got {entry!r}")
     with splines.collecting() as refs:
-        source = _kernel(method, engine)
+        source = _kernel(method, engine, entry)
     return source, splines.field_data(refs)
 
 
-def _kernel(method: Any, engine: str) -> str:
+def _kernel(method: Any, engine: str, entry: str) -> str:
     stages = plan(method)
     if isinstance(stages, str):
         raise ValueError(stages)  # noqa: TRY004 - a method that cannot be generated
@@ -491,7 +497,7 @@ def _kernel(method: Any, engine: str) -> str:
             guard = _guard_c(field, kappa, fixed)
         steps[kind] = _step_fn(f"vp_step_{kind}", calls, fixed, guard)
     fns, steps = fns["fast"] + fns["exact"], steps["fast"] + steps["exact"]
-    nf = RESULTS.nonfinite
+    lanes = lane_code()
     # the Gauss–Legendre rules the quadrature potentials loop over (_gl_loops)
     tables = "".join(_gl_table(n) for n in sorted({int(k) for k in re.findall(r"VP_GL_T(\d+)\[", fns)}))
     return f"""
@@ -509,7 +515,7 @@ def _kernel(method: Any, engine: str) -> str:
 {fns}
 /* one step of {describe(method)}: {len(stages)} stage(s), generated from SymPy */
 {steps}
-/* Saves (save_every > 0): xs has shape (N, n_saves + 1, 3), slot 0 the initial state (not
+""" + (sections_entry(lanes) if entry == "sections" else f"""/* Saves (save_every > 0): xs has shape (N, n_saves + 1, 3), slot 0 the initial state (not
    written here), slot j the state after step j·save_every and slot n_saves after n_total (the last
    step, saved even off the stride). A live lane at a saved step writes its slot; a lane that stops
    (its status set, now or before this call) fills its later slots with its frozen state, as the
@@ -523,47 +529,8 @@ void vp_run(int64_t N, double *x, int32_t *status, int64_t *n, int64_t n_target,
     int64_t nb = (N + B - 1) / B;
     #pragma omp parallel for schedule(dynamic, 1)
     for (int64_t b = 0; b < nb; b++) {{
-        int64_t lo = b * B;
-        int m = (int)(N - lo < B ? N - lo : B);
-        double a1[B], a2[B], a3[B];
-        int32_t st[B];
-        int64_t nn[B];
-        int redo[B];
-        int64_t nmin = n_target;
-        for (int i = 0; i < B; i++) {{
-            if (i < m) {{
-                a1[i] = x[3 * (lo + i)]; a2[i] = x[3 * (lo + i) + 1]; a3[i] = x[3 * (lo + i) + 2];
-                st[i] = status[lo + i]; nn[i] = n[lo + i];
-                if (st[i] == 0 && nn[i] < nmin) nmin = nn[i];
-            }} else {{
-                a1[i] = a2[i] = a3[i] = 0.0; st[i] = 1; nn[i] = n_target;  /* padding lane: inactive */
-            }}
-        }}
-        for (int64_t k = nmin; k < n_target; k++) {{
-            #pragma omp simd
-            for (int i = 0; i < B; i++) {{  /* vectorised: the lanes the fast pass decides */
-                double X1, X2, X3;
-                double good = vp_step_fast(a1[i], a2[i], a3[i], h, &X1, &X2, &X3, fd);
-                int act = (st[i] == 0) & (nn[i] < n_target);
-                int ok = act & (good > 0.5);
-                a1[i] = ok ? X1 : a1[i]; a2[i] = ok ? X2 : a2[i]; a3[i] = ok ? X3 : a3[i];
-                nn[i] += ok;
-                redo[i] = act & !(good > 0.5);
-            }}
-            int any = 0;
-            for (int i = 0; i < B; i++) any |= redo[i];
-            /* the others, exactly (status, frozen on failure); the guard matters: gcc vectorises
-               this loop with masks, i.e. it costs a full step of the block when entered */
-            if (any) for (int i = 0; i < B; i++) {{
-                if (!redo[i]) continue;
-                double X1, X2, X3;
-                int code = vp_step_exact(a1[i], a2[i], a3[i], h, &X1, &X2, &X3, fd);
-                int inok = _VP_FINITE(a1[i], a2[i], a3[i]), fin = _VP_FINITE(X1, X2, X3);
-                code = !inok ? {nf} : code ? code : fin ? 0 : {nf};
-                if (code == 0) {{ a1[i] = X1; a2[i] = X2; a3[i] = X3; nn[i] += 1; }}
-                else st[i] = code;
-            }}
-            if (save_every > 0) for (int i = 0; i < m; i++) {{
+{lanes['load']}        for (int64_t k = nmin; k < n_target; k++) {{
+{lanes['step']}            if (save_every > 0) for (int i = 0; i < m; i++) {{
                 /* a live lane at a saved step writes its state (again, harmlessly, while it waits) */
                 if (st[i] != 0) continue;
                 int64_t j = vp_slot(nn[i], save_every, n_total, n_saves);
@@ -580,10 +547,6 @@ void vp_run(int64_t N, double *x, int32_t *status, int64_t *n, int64_t n_target,
                 o[0] = a1[i]; o[1] = a2[i]; o[2] = a3[i];
             }}
         }}
-        for (int i = 0; i < m; i++) {{
-            x[3 * (lo + i)] = a1[i]; x[3 * (lo + i) + 1] = a2[i]; x[3 * (lo + i) + 2] = a3[i];
-            status[lo + i] = st[i]; n[lo + i] = nn[i];
-        }}
-    }}
+{lanes['store']}    }}
 }}
-"""
+""")
