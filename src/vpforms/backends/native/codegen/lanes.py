@@ -23,6 +23,9 @@ def lane_code() -> dict[str, str]:
         int64_t nn[B];
         int redo[B];
         int64_t nmin = n_target;
+        /* the lanes stepped: m rounded up to 8 (a multiple of every SIMD width), so a short block
+           (a few field lines) costs its own lanes, not B; the padding lanes are inactive */
+        int mv = (m + 7) & ~7;
         for (int i = 0; i < B; i++) {
             if (i < m) {
                 a1[i] = x[3 * (lo + i)]; a2[i] = x[3 * (lo + i) + 1]; a3[i] = x[3 * (lo + i) + 2];
@@ -34,7 +37,7 @@ def lane_code() -> dict[str, str]:
         }
 """,
         "step": f"""            #pragma omp simd
-            for (int i = 0; i < B; i++) {{  /* vectorised: the lanes the fast pass decides */
+            for (int i = 0; i < mv; i++) {{  /* vectorised: the lanes the fast pass decides */
                 double X1, X2, X3;
                 double good = vp_step_fast(a1[i], a2[i], a3[i], h, &X1, &X2, &X3, fd);
                 int act = (st[i] == 0) & (nn[i] < n_target);
@@ -44,10 +47,10 @@ def lane_code() -> dict[str, str]:
                 redo[i] = act & !(good > 0.5);
             }}
             int any = 0;
-            for (int i = 0; i < B; i++) any |= redo[i];
+            for (int i = 0; i < mv; i++) any |= redo[i];
             /* the others, exactly (status, frozen on failure); the guard matters: gcc vectorises
                this loop with masks, i.e. it costs a full step of the block when entered */
-            if (any) for (int i = 0; i < B; i++) {{
+            if (any) for (int i = 0; i < mv; i++) {{
                 if (!redo[i]) continue;
                 double X1, X2, X3;
                 int code = vp_step_exact(a1[i], a2[i], a3[i], h, &X1, &X2, &X3, fd);
