@@ -203,7 +203,7 @@ import sys, numpy as np, vpforms as V
 from vpforms import problems as P, distributed as D
 prob = P.get("abc")
 x0 = prob.initial_conditions(10_000, seed=3)
-D.run(V.scheme(prob.field, "DL+DL"), x0, {H}, {N}, store=sys.argv[1], save_every={S},
+D.run(V.scheme(prob.field, "DL+DL", fast=False), x0, {H}, {N}, store=sys.argv[1], save_every={S},
       chunk_particles=1000, checkpoint_every=2, progress=False)
 """
 
