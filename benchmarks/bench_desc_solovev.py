@@ -5,7 +5,7 @@ The study (issue #24): the Solov'ev tokamak ψ = c/2·(R²Z² + κ²/4·(R² −
 B_φ = g/R (R₀ = B₀ = g = 1, κ = 3/2, q₀ = 6/5); 100 field lines from R ∈ [1.03, 1.32], Z = 0, φ = 0;
 section points (R, Z) at φ = 2πk. Accuracy = max |Δ(R, Z)| over all lines and k ≤ 100 against
 DOP853 in φ (rtol 1e-13); wall time = all 100 lines over 1000 transits, compile excluded and
-reported separately; surface thickness = max over the long run (10⁴ transits, `--long-transits`) of |ψ(R_k, Z_k) − ψ(R₀, Z₀)|/|∇ψ|
+reported separately; surface thickness = max over the long run (`--long-transits`, default 10⁴) of |ψ(R_k, Z_k) − ψ(R₀, Z₀)|/|∇ψ|
 (the distance to the exact flux surface: ψ is the invariant of this field) for the line at R = 1.2.
 
 * vpforms: ``phi_time_field`` of the SymPy potential (A_u, A_φ, A_Z) = (0, ψ, −(g/2) ln 2u) — v = g ln R,
