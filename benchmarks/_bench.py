@@ -22,6 +22,16 @@ def parser(doc: str, results: str, rounds: int) -> argparse.ArgumentParser:
     return ap
 
 
+def native_missing() -> bool:
+    """True (after saying why) where the native backend cannot run: the script then exits with 1."""
+    import vpforms
+
+    ok, why = vpforms.native.available()
+    if not ok:
+        print(f"native backend unavailable: {why}")
+    return not ok
+
+
 def best_of(fn: Callable[[], Any], repeats: int) -> tuple[float, Any]:
     """The shortest wall time of ``repeats`` calls of ``fn`` and the last call's result."""
     best, out = math.inf, None

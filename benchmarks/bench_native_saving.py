@@ -19,7 +19,7 @@ import sys
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # benchmarks/_bench.py
-from _bench import best_of, machine, parser, write_results
+from _bench import best_of, machine, native_missing, parser, write_results
 
 import vpforms
 from vpforms import problems
@@ -30,9 +30,7 @@ from vpforms.backends.native.runner import CALLS, run_points
 def main(argv=None) -> int:
     args = parser(__doc__, "results_native_saving.md", rounds=3).parse_args(argv)
     t0 = time.perf_counter()
-    ok, why = vpforms.native.available()
-    if not ok:
-        print(f"native backend unavailable: {why}")
+    if native_missing():
         return 1
     prob = problems.get("abc")
     m = vpforms.scheme(prob.field, "SE+SE", fast=True, recover=False)

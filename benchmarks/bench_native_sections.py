@@ -23,7 +23,7 @@ import sys
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # benchmarks/_bench.py
-from _bench import best_of, machine, parser, write_results
+from _bench import best_of, machine, native_missing, parser, write_results
 
 import vpforms
 from vpforms import problems
@@ -34,9 +34,7 @@ from vpforms.fieldlines import toroidal_section
 def main(argv=None) -> int:
     args = parser(__doc__, "results_native_sections.md", rounds=3).parse_args(argv)
     t0 = time.perf_counter()
-    ok, why = vpforms.native.available()
-    if not ok:
-        print(f"native backend unavailable: {why}")
+    if native_missing():
         return 1
     tok = problems.get("tokamak", coordinates="toroidal")
     abc = problems.get("abc")

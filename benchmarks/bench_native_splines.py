@@ -28,7 +28,7 @@ import time
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # benchmarks/_bench.py
-from _bench import best_of, machine, parser, write_results
+from _bench import best_of, machine, native_missing, parser, write_results
 
 import vpforms
 from vpforms import problems
@@ -62,9 +62,7 @@ def tokamak_spline(n_R: int, n_phi: int, n_Z: int):
 def main(argv=None) -> int:
     args = parser(__doc__, "results_native_splines.md", rounds=3).parse_args(argv)
     t0 = time.perf_counter()
-    ok, why = vpforms.native.available()
-    if not ok:
-        print(f"native backend unavailable: {why}")
+    if native_missing():
         return 1
     smoke = args.smoke
     rounds = 1 if smoke else args.rounds
