@@ -388,12 +388,34 @@ def check_order_two(tok):
 
 
 @pytest.mark.slow
+def check_native_is_jax(tok):
+    """The default backend ran the tokamak natively (``vp_wall``) where a compiler exists; the JAX scan
+    stops the same lines at the same steps with the same statuses, and its exits, lengths and transits
+    agree to rounding (≤ 1e-10: the same tests and arithmetic, C against XLA)."""
+    h = HS[1]
+    nat = tok["runs"][h]
+    if not vpforms.native.available()[0]:
+        assert nat.backend == "jax"
+        return
+    assert nat.backend == "native", nat.backend_reason
+    jx = trace_to_wall(tok["m"], tok["x0"], h, round(T_MAX / h), tok["wall"], progress=False, backend="jax")
+    assert jx.backend == "jax"
+    for f in ("status", "hit", "step", "fallback"):
+        np.testing.assert_array_equal(getattr(nat, f), getattr(jx, f), err_msg=f)
+    assert nat.hit.any() and (~nat.hit).any()
+    for f in ("theta", "t_exit", "exit_point", "exit_RZ", "exit_phi", "connection_length", "transits", "last_point"):
+        a, b = getattr(nat, f), getattr(jx, f)
+        np.testing.assert_array_equal(np.isnan(a), np.isnan(b), err_msg=f)
+        np.testing.assert_allclose(a, b, rtol=0, atol=1e-10, equal_nan=True, err_msg=f)
+
+
 def test_tokamak_wall(tok):
     """SE+SE (composed, order 2) on the unperturbed tokamak, a box that cuts some flux surfaces: the
-    three checks above in one test, so that the method compiles once (on one xdist worker)."""
+    four checks above in one test, so that the method compiles once (on one xdist worker)."""
     check_surfaces(tok)
     check_exit_steps(tok)
     check_order_two(tok)
+    check_native_is_jax(tok)
 
 
 # ------------------------------------------------------------- a field in (u, φ, Z) coordinates

@@ -11,7 +11,7 @@ tests/test_walls.py), with the connection length ∫|B| dt and the toroidal tran
 
 from __future__ import annotations
 
-import math
+import dataclasses
 from dataclasses import dataclass
 from functools import partial
 from typing import Any
@@ -25,248 +25,15 @@ from .. import _config  # noqa: F401  (float64 on)
 from .._errors import RESULTS
 from .._integrate import _check_run, describe
 from .._progress import _Bar
-from .._recovery import bare_first
+from .._recovery import bare_first, bare_method
+from ..backends import NativeUnavailableError, select_backend
 from ..backends.jax_runner import _StepFn, auto_chunk_size
 from ..diagnostics._common import _chunks, _pad
 from ..diagnostics._locate import illinois
 from ._geometry import cylindrical, is_toroidal, speed
+from ._polygon import Wall, _fmt, _inside_kernel, _signed_distance_kernel
 
 __all__ = ["Wall", "WallHits", "trace_to_wall"]
-
-_CLOSE_RTOL = 1e-12  # relative tolerance: "last vertex equal to the first", repeated vertices
-
-
-# --------------------------------------------------------------------------------------------
-# Polygon kernels: vertices (n,) open (the closing vertex not repeated); jnp and broadcasting
-# --------------------------------------------------------------------------------------------
-def _inside_kernel(Rv, Zv, R, Z):
-    """Even-odd rule: a ray from (R, Z) towards +R crosses an odd number of edges."""
-    R = jnp.asarray(R, jnp.float64)[..., None]
-    Z = jnp.asarray(Z, jnp.float64)[..., None]
-    R2, Z2 = jnp.roll(Rv, -1), jnp.roll(Zv, -1)
-    straddle = (Zv > Z) != (Z2 > Z)  # the edge spans the horizontal line through the point
-    dz = jnp.where(straddle, Z2 - Zv, 1.0)
-    Rx = Rv + (Z - Zv) / dz * (R2 - Rv)  # where the edge meets that line
-    n = jnp.sum(straddle & (R < Rx), axis=-1)
-    return (n % 2) == 1
-
-
-def _signed_distance_kernel(Rv, Zv, R, Z):
-    """min over edges of the point–segment distance; negative inside (even-odd rule)."""
-    R = jnp.asarray(R, jnp.float64)
-    Z = jnp.asarray(Z, jnp.float64)
-    dR, dZ = jnp.roll(Rv, -1) - Rv, jnp.roll(Zv, -1) - Zv
-    pR, pZ = R[..., None] - Rv, Z[..., None] - Zv
-    t = jnp.clip((pR * dR + pZ * dZ) / (dR * dR + dZ * dZ), 0.0, 1.0)
-    d = jnp.sqrt(jnp.min((pR - t * dR) ** 2 + (pZ - t * dZ) ** 2, axis=-1))
-    return jnp.where(_inside_kernel(Rv, Zv, R, Z), -d, d)
-
-
-_inside_jit = jax.jit(_inside_kernel)
-_signed_distance_jit = jax.jit(_signed_distance_kernel)
-
-
-def _fmt(R, Z) -> str:
-    return f"({float(R):.10g}, {float(Z):.10g})"
-
-
-class Wall:
-    """A simple closed polygon in the (R, Z) half-plane (R ≥ 0), the same at every toroidal angle.
-
-    ``Wall(R, Z)`` takes the vertices in order, given CLOSED: the last vertex equal to the first
-    (to 1e-12 relative to the largest |coordinate|). Repeated consecutive vertices are dropped; at
-    least 3 distinct vertices must remain, the edges must not cross or touch (every pair of
-    non-adjacent edges is tested, and adjacent ones must not fold back), and the area must be
-    positive. Every violation is one :class:`ValueError` naming the vertices concerned (indices
-    into the ``R``, ``Z`` given).
-
-    :meth:`inside` (even-odd rule) and :meth:`signed_distance` (distance to the nearest edge,
-    negative inside, continuous) are JAX functions of scalars or arrays (broadcast, jit- and
-    vmap-able); :meth:`contains` is their NumPy counterpart for (M, 2) points.
-
-    Attributes: ``R``, ``Z`` the kept vertices, closed (last = first); ``vertices`` (n, 2) open;
-    ``n_vertices`` = n; ``area``; ``bounds`` = (R_min, R_max, Z_min, Z_max).
-    """
-
-    def __init__(self, R: Any, Z: Any):
-        try:
-            R = np.array(R, dtype=np.float64)
-            Z = np.array(Z, dtype=np.float64)
-        except (TypeError, ValueError) as e:
-            raise ValueError(f"Wall vertices R, Z must be sequences of numbers: {e}") from None
-        if R.ndim != 1 or Z.shape != R.shape:
-            raise ValueError(f"Wall needs two 1-D vertex sequences R, Z of the same length; "
-                             f"got shapes {R.shape} and {Z.shape}")
-        bad = np.flatnonzero(~(np.isfinite(R) & np.isfinite(Z)))
-        if bad.size:
-            i = int(bad[0])
-            raise ValueError(f"Wall vertices must be finite: vertex {i} is (R, Z) = {_fmt(R[i], Z[i])}"
-                             + (f" ({bad.size} non-finite vertices)" if bad.size > 1 else ""))
-        if R.size < 2:
-            raise ValueError(f"Wall needs at least 3 distinct vertices (plus the closing one); got {R.size}")
-        neg = np.flatnonzero(R < 0)
-        if neg.size:
-            i = int(neg[0])
-            raise ValueError(f"Wall vertices must lie in the half-plane R ≥ 0: vertex {i} is "
-                             f"(R, Z) = {_fmt(R[i], Z[i])}")
-        scale = float(max(np.abs(R).max(), np.abs(Z).max()))
-        tol = _CLOSE_RTOL * scale
-        if math.hypot(R[-1] - R[0], Z[-1] - Z[0]) > tol:
-            raise ValueError(
-                f"Wall polygon is not closed: its last vertex {_fmt(R[-1], Z[-1])} differs from its "
-                f"first {_fmt(R[0], Z[0])}; close it by repeating the first vertex at the end "
-                f"(R = [*R, R[0]], Z = [*Z, Z[0]])"
-            )
-        # open polygon without repeated consecutive vertices; idx: the indices given
-        keep = [0]
-        for i in range(1, R.size - 1):
-            if math.hypot(R[i] - R[keep[-1]], Z[i] - Z[keep[-1]]) > tol:
-                keep.append(i)
-        while len(keep) > 1 and math.hypot(R[keep[-1]] - R[0], Z[keep[-1]] - Z[0]) <= tol:
-            keep.pop()
-        idx = np.asarray(keep)
-        if idx.size < 3:
-            raise ValueError(f"Wall needs at least 3 distinct vertices (plus the closing one); "
-                             f"got {idx.size} distinct")
-        Rv, Zv = R[idx], Z[idx]
-        _check_simple(Rv, Zv, idx, scale)
-        area = 0.5 * float(np.sum(Rv * np.roll(Zv, -1) - np.roll(Rv, -1) * Zv))
-        if not abs(area) > _CLOSE_RTOL * scale * scale:
-            raise ValueError("Wall polygon has zero area (its vertices are collinear)")
-        self._Rv, self._Zv = Rv, Zv
-        self._Rv.setflags(write=False)
-        self._Zv.setflags(write=False)
-        self.area = abs(area)
-        self._scale = scale
-
-    # ---------------------------------------------------------------------------- constructors
-    @classmethod
-    def box(cls, R_min: float, R_max: float, Z_min: float, Z_max: float) -> Wall:
-        """The rectangle [R_min, R_max] × [Z_min, Z_max] (counter-clockwise, closed)."""
-        vals = [float(v) for v in (R_min, R_max, Z_min, Z_max)]
-        if not all(math.isfinite(v) for v in vals):
-            raise ValueError(f"Wall.box needs finite bounds; got {vals}")
-        r0, r1, z0, z1 = vals
-        if not (r0 < r1 and z0 < z1):
-            raise ValueError(f"Wall.box needs R_min < R_max and Z_min < Z_max; got R [{r0}, {r1}], Z [{z0}, {z1}]")
-        return cls([r0, r1, r1, r0, r0], [z0, z0, z1, z1, z0])
-
-    @classmethod
-    def circle(cls, R0: float, Z0: float, radius: float, n: int = 128) -> Wall:
-        """The regular n-gon inscribed in the circle of centre (R0, Z0) and ``radius`` (vertex 0 at
-        the outer midplane (R0 + radius, Z0), counter-clockwise, closed). Its edges are inside the
-        circle by at most radius·(1 − cos(π/n)) (3.0e-4·radius for n = 128)."""
-        if isinstance(n, bool) or int(n) != n or n < 3:
-            raise ValueError(f"Wall.circle needs an integer n ≥ 3 vertices; got {n!r}")
-        R0, Z0, radius = float(R0), float(Z0), float(radius)
-        if not (math.isfinite(R0) and math.isfinite(Z0) and math.isfinite(radius) and radius > 0):
-            raise ValueError(f"Wall.circle needs a finite centre and radius > 0; got ({R0}, {Z0}), {radius}")
-        a = 2 * np.pi * np.arange(int(n)) / int(n)
-        R, Z = R0 + radius * np.cos(a), Z0 + radius * np.sin(a)
-        return cls(np.append(R, R[0]), np.append(Z, Z[0]))
-
-    # ---------------------------------------------------------------------------- geometry
-    @property
-    def vertices(self) -> np.ndarray:
-        """(n, 2) the distinct vertices (R, Z) in order, open (the first not repeated)."""
-        return np.stack([self._Rv, self._Zv], axis=1)
-
-    @property
-    def R(self) -> np.ndarray:
-        """The vertices' R, closed (last = first)."""
-        return np.append(self._Rv, self._Rv[0])
-
-    @property
-    def Z(self) -> np.ndarray:
-        """The vertices' Z, closed (last = first)."""
-        return np.append(self._Zv, self._Zv[0])
-
-    @property
-    def n_vertices(self) -> int:
-        return int(self._Rv.size)
-
-    @property
-    def bounds(self) -> tuple[float, float, float, float]:
-        """(R_min, R_max, Z_min, Z_max) of the vertices."""
-        return (float(self._Rv.min()), float(self._Rv.max()), float(self._Zv.min()), float(self._Zv.max()))
-
-    def __repr__(self) -> str:
-        r0, r1, z0, z1 = self.bounds
-        return f"Wall({self.n_vertices} vertices, R ∈ [{r0:.6g}, {r1:.6g}], Z ∈ [{z0:.6g}, {z1:.6g}])"
-
-    def inside(self, R: Any, Z: Any) -> jax.Array:
-        """Whether (R, Z) is inside the polygon (even-odd rule; a NaN point is outside); JAX,
-        broadcasting R and Z."""
-        return _inside_jit(self._Rv, self._Zv, R, Z)
-
-    def signed_distance(self, R: Any, Z: Any) -> jax.Array:
-        """Euclidean distance from (R, Z) to the nearest edge, negative inside (:meth:`inside`),
-        positive outside: continuous, zero exactly on the polygon. JAX, broadcasting R and Z."""
-        return _signed_distance_jit(self._Rv, self._Zv, R, Z)
-
-    def contains(self, points_RZ: Any) -> np.ndarray:
-        """NumPy :meth:`inside` for points (M, 2) (or (2,)) of (R, Z): (M,) bool, memory O(M)."""
-        p = np.asarray(points_RZ, dtype=np.float64)
-        if p.shape[-1:] != (2,):
-            raise ValueError(f"contains needs points of shape (M, 2) (R, Z); got {p.shape}")
-        R, Z = p[..., 0], p[..., 1]
-        odd = np.zeros(R.shape, dtype=bool)
-        Rv, Zv = self._Rv, self._Zv
-        R2, Z2 = np.roll(Rv, -1), np.roll(Zv, -1)
-        with np.errstate(invalid="ignore"):
-            for k in range(Rv.size):  # the same rule and arithmetic as inside()
-                straddle = (Zv[k] > Z) != (Z2[k] > Z)
-                dz = Z2[k] - Zv[k] if Z2[k] != Zv[k] else 1.0
-                Rx = Rv[k] + (Z - Zv[k]) / dz * (R2[k] - Rv[k])
-                odd ^= straddle & (R < Rx)
-        return odd
-
-
-def _check_simple(Rv: np.ndarray, Zv: np.ndarray, idx: np.ndarray, scale: float) -> None:
-    """ValueError naming two edges that cross or touch (non-adjacent), or fold back (adjacent)."""
-    n = Rv.size
-    eps = 1e-14 * scale  # a point this close to a line is on it
-    R2, Z2 = np.roll(Rv, -1), np.roll(Zv, -1)
-
-    def edge(k):
-        a, b = int(idx[k]), int(idx[(k + 1) % n])
-        return f"edge {k} (vertex {a} {_fmt(Rv[k], Zv[k])} → vertex {b} {_fmt(R2[k], Z2[k])})"
-
-    def orient(ax, az, bx, bz, cx, cz):  # the side of line a→b that c is on (0: within eps of it)
-        o = (bx - ax) * (cz - az) - (bz - az) * (cx - ax)
-        return np.where(np.abs(o) <= eps * np.hypot(bx - ax, bz - az), 0.0, np.sign(o))
-
-    def on_segment(ax, az, bx, bz, px, pz):  # p collinear with a b: within its bounding box
-        t = 1e-12 * scale
-        return ((np.minimum(ax, bx) - t <= px) & (px <= np.maximum(ax, bx) + t)
-                & (np.minimum(az, bz) - t <= pz) & (pz <= np.maximum(az, bz) + t))
-
-    # adjacent edges k, k+1 share vertex k+1: they overlap iff collinear and folding back
-    k = np.arange(n)
-    k2 = (k + 1) % n
-    fold = (orient(Rv, Zv, R2, Z2, R2[k2], Z2[k2]) == 0) & (
-        (R2 - Rv) * (R2[k2] - Rv[k2]) + (Z2 - Zv) * (Z2[k2] - Zv[k2]) < 0)
-    if fold.any():
-        a = int(np.flatnonzero(fold)[0])
-        raise ValueError(f"Wall polygon intersects itself: {edge(a)} and {edge((a + 1) % n)} fold back "
-                         f"onto each other; the vertices must trace the boundary once, without crossing")
-    for i in range(n - 2):
-        j = np.arange(i + 2, n - 1 if i == 0 else n)  # not i ± 1 (edge n−1 is adjacent to edge 0)
-        if j.size == 0:
-            continue
-        ax, az, bx, bz = Rv[i], Zv[i], R2[i], Z2[i]
-        cx, cz, dx, dz = Rv[j], Zv[j], R2[j], Z2[j]
-        d1, d2 = orient(cx, cz, dx, dz, ax, az), orient(cx, cz, dx, dz, bx, bz)
-        d3, d4 = orient(ax, az, bx, bz, cx, cz), orient(ax, az, bx, bz, dx, dz)
-        hit = ((d1 * d2 < 0) & (d3 * d4 < 0)
-               | (d1 == 0) & on_segment(cx, cz, dx, dz, ax, az)
-               | (d2 == 0) & on_segment(cx, cz, dx, dz, bx, bz)
-               | (d3 == 0) & on_segment(ax, az, bx, bz, cx, cz)
-               | (d4 == 0) & on_segment(ax, az, bx, bz, dx, dz))
-        if hit.any():
-            b = int(j[np.flatnonzero(hit)[0]])
-            raise ValueError(f"Wall polygon intersects itself: {edge(i)} and {edge(b)} cross or touch; "
-                             f"the vertices must trace the boundary once, without crossing")
 
 
 # --------------------------------------------------------------------------------------------
@@ -292,7 +59,8 @@ class WallHits:
     each assumed < π). ``last_point`` (N, 3) the exit point, the point after
     n_steps, or the frozen point of a failed line. ``fallback`` marks exits that the step family
     could not locate (a sub-step failed), located on the chord x_n + θ(x_{n+1} − x_n) instead
-    (still on the polygon, but not a step of the method).
+    (still on the polygon, but not a step of the method). ``backend`` ("jax" or "native") traced
+    the lines, for ``backend_reason``.
     """
 
     status: np.ndarray
@@ -312,6 +80,17 @@ class WallHits:
     n_steps: int
     t0: float
     method: str
+    backend: str = "jax"
+    backend_reason: str = ""
+
+    @classmethod
+    def concatenate(cls, parts: list[WallHits]) -> WallHits:
+        """The hits of consecutive chunks of lines as one (the scalars of the first part)."""
+        if not parts:
+            raise ValueError("WallHits.concatenate needs at least one part")
+        arrays = {f: np.concatenate([getattr(p, f) for p in parts]) for f in _WALLHITS_ARRAYS}
+        first = parts[0]
+        return dataclasses.replace(first, **arrays)
 
     @property
     def n_hit(self) -> int:
@@ -348,6 +127,10 @@ class WallHits:
         if self.fallback.any():
             lines.append(f"{int(self.fallback.sum())} exit(s) located on the chord (a sub-step failed).")
         return " ".join(lines)
+
+
+_WALLHITS_ARRAYS = ("status", "hit", "step", "theta", "t_exit", "exit_point", "exit_RZ", "exit_phi",
+                    "connection_length", "transits", "last_point", "fallback")
 
 
 def _wrap(d):
@@ -442,6 +225,7 @@ def trace_to_wall(
     t0: float = 0.0,
     chunk_size: int | None = None,
     progress: bool | str = "auto",
+    backend: str = "auto",
 ) -> WallHits:
     """Trace field lines until they leave ``wall``: the first step x_n → x_{n+1} = Ψ_h(x_n) of
     ``method`` whose new point has its (R, Z) outside the polygon stops the line (status
@@ -467,7 +251,12 @@ def trace_to_wall(
     h, n_steps, t0:
         Step (h < 0 traces backwards), the most steps per line, the start time (``t_exit``).
     chunk_size:
-        Lines per compiled chunk (default :func:`vpforms.auto_chunk_size`).
+        Lines per compiled chunk of the JAX backend (default :func:`vpforms.auto_chunk_size`).
+    backend:
+        ``"auto"`` (the native kernel ``vp_wall`` where :func:`vpforms.integrate` would run
+        natively), ``"jax"`` or ``"native"``, as for :func:`vpforms.integrate`. Both stop the same
+        lines at the same steps with the same statuses (the same tests, the same arithmetic); the
+        exits are located by the same JAX code on the step family.
 
     Returns
     -------
@@ -478,12 +267,43 @@ def trace_to_wall(
 
     Notes
     -----
-    Jitted: a ``lax.scan`` over segments of 64 to 1024 steps, ``vmap`` over a chunk of lines, the
+    JAX: a ``lax.scan`` over segments of 64 to 1024 steps, ``vmap`` over a chunk of lines, the
     segments looped on the host until every line of the chunk has stopped; device memory O(chunk),
-    independent of n_steps. The exits are located afterwards, batched over all the lines that hit.
-    A recovering method (``vpforms.scheme(..., recover=True)``) is run bare first and again with
-    recovery only if some step (or some locating sub-step) failed.
+    independent of n_steps. Native: the kernel tests the wall after every step only where a line is
+    near it (a margin: the distance to the wall at the last full test minus the way gone since).
+    The exits are located afterwards, batched over all the lines that hit. A recovering method
+    (``vpforms.scheme(..., recover=True)``) is run bare first and again with recovery only if some
+    step (or some locating sub-step) failed (JAX), or recovers each failed step as it happens
+    (native, as :func:`vpforms.integrate`).
     """
+    pts, h, n_steps = check_wall_run(method, x0, h, n_steps, wall, t0)
+    field = method.field
+    tor = is_toroidal(field)
+    N = pts.shape[0]
+    backend, reason = wall_backend(method, backend)
+    Rv, Zv = jnp.asarray(wall._Rv), jnp.asarray(wall._Zv)
+    tol = jnp.asarray(2.5e-16 * max(wall._scale, 1e-300))  # about an ulp of the coordinates
+    hj = jnp.asarray(h)
+    finish = partial(_finish, pts, tor, wall, Rv, Zv, tol, hj, h, n_steps, t0, method, backend, reason)
+
+    if backend == "native":
+        return finish(_trace_native(method, pts, h, n_steps, wall, tor, progress), _StepFn(bare_method(method)))
+
+    C = max(1, min(N, chunk_size or auto_chunk_size(N)))
+
+    def trace(m):
+        fn = _StepFn(m)
+        return finish(_trace_jax(fn, pts, h, n_steps, tor, Rv, Zv, hj, C, progress), fn)
+
+    # a recovering method: the bare scan first, the recovering one only where a bare step (or a
+    # locating sub-step) failed; leaving the wall or the field's domain is a stop, not a failure
+    return bare_first(trace, method, lambda w: bool(
+        np.all((w.status == RESULTS.successful) | (w.status == RESULTS.left_domain)) and not w.fallback.any()))
+
+
+def check_wall_run(method: Any, x0: Any, h: Any, n_steps: Any, wall: Any, t0: Any) -> tuple[np.ndarray, float, int]:
+    """The argument checks of :func:`trace_to_wall` (every line starting inside the wall included):
+    (points (N, 3), h, n_steps)."""
     if not isinstance(wall, Wall):
         raise TypeError(f"wall must be a vpforms Wall (Wall(R, Z), Wall.box, Wall.circle); got {type(wall).__name__}")
     pts, _, h, n_steps = _check_run(method, x0, h, n_steps, t0)
@@ -491,95 +311,156 @@ def trace_to_wall(
     if not callable(field):
         raise TypeError("trace_to_wall needs a method with a .field (the vpforms.Field it integrates) to "
                         "compute |B|")
-    tor = is_toroidal(field)
-    N = pts.shape[0]
-    if tor:
-        with np.errstate(invalid="ignore"):
-            R0 = np.sqrt(2.0 * pts[:, 0])
-    else:
-        R0 = np.hypot(pts[:, 0], pts[:, 1])
+    _check_start(pts, is_toroidal(field), wall)
+    return pts, h, n_steps
+
+
+def _check_start(pts: np.ndarray, tor: bool, wall: Wall) -> None:
+    """ValueError naming the first point that does not start inside ``wall``."""
+    R0, _ = _cylindrical_np(pts, tor)
     start_in = wall.contains(np.stack([R0, pts[:, 2]], axis=1))
     if not start_in.all():
         i = int(np.flatnonzero(~start_in)[0])
-        more = f" ({int((~start_in).sum())} of {N} points outside)" if (~start_in).sum() > 1 else ""
+        n_out = int((~start_in).sum())
+        more = f" ({n_out} of {pts.shape[0]} points outside)" if n_out > 1 else ""
         raise ValueError(f"x0[{i}] starts outside the wall: its (R, Z) = {_fmt(R0[i], pts[i, 2])} is not inside "
                          f"{wall!r}{more}; every line must start inside the wall")
+
+
+def wall_backend(method: Any, backend: str) -> tuple[str, str]:
+    """(backend, why) of a wall trace: :func:`vpforms.backends.select_backend`'s choice, and JAX
+    where the wall kernel cannot evaluate |B| natively (an error if native was requested)."""
+    backend, reason = select_backend(method, backend)
+    why = _native_reason(method) if backend == "native" else None
+    if why is not None:
+        if reason == "requested":
+            raise NativeUnavailableError(f"native wall tracing cannot run {describe(method)}: {why}")
+        backend, reason = "jax", f"auto: native not used ({why})"
+    return backend, reason
+
+
+def _cylindrical_np(x: np.ndarray, toroidal: bool) -> tuple[np.ndarray, np.ndarray]:
+    """(R, φ) of points (M, 3) in NumPy (NaN R for a negative u)."""
+    if toroidal:
+        with np.errstate(invalid="ignore"):
+            return np.sqrt(2.0 * x[:, 0]), x[:, 1]
+    return np.hypot(x[:, 0], x[:, 1]), np.arctan2(x[:, 1], x[:, 0])
+
+
+def _native_reason(method: Any) -> str | None:
+    """Why the wall kernel cannot run ``method`` natively (its |B| in C), or None."""
+    from ..backends.native.codegen.potentials import field_reason
+
+    return field_reason(method.field)
+
+
+def _trace_jax(fn, pts, h, n_steps, tor, Rv, Zv, hj, C, progress) -> dict:
+    """The JAX scan to the wall, chunk by chunk: the raw per-line arrays of :func:`_finish`."""
+    N = pts.shape[0]
     # segments of 64…1024 steps, a power of two (≥ ~20 per chunk for a live bar): one compilation
     # serves many n_steps; the steps past n_steps are skipped
     seg = min(1024, max(64, 1 << max(-(-n_steps // 20) - 1, 0).bit_length()))
-    C = max(1, min(N, chunk_size or auto_chunk_size(N)))
-    Rv, Zv = jnp.asarray(wall._Rv), jnp.asarray(wall._Zv)
-    tol = jnp.asarray(2.5e-16 * max(wall._scale, 1e-300))  # about an ulp of the coordinates
-    hj = jnp.asarray(h)
+    st_o = np.zeros(N, np.int32)
+    step_o = np.full(N, -1, np.int64)
+    x_o, X_o = np.zeros((N, 3)), np.zeros((N, 3))
+    s_o, L_o, dphi_o = np.zeros(N), np.zeros(N), np.zeros(N)
+    bar = _Bar(progress, N * n_steps, "Tracing to the wall")
+    try:
+        for lo, hi in _chunks(N, C):
+            x = jnp.asarray(_pad(pts[lo:hi], C))
+            s, phi = _start(fn, tor, x)
+            st = jnp.zeros(C, jnp.int32)
+            step = jnp.full(C, -1, jnp.int32)
+            Xo, L, dphi = x, jnp.zeros(C), jnp.zeros(C)
+            done = 0
+            while done < n_steps:
+                x, st, step, Xo, s, phi, L, dphi = _wall_scan(
+                    fn, seg, tor, Rv, Zv, x, st, step, Xo, s, phi, L, dphi, jnp.asarray(done), hj,
+                    jnp.asarray(n_steps))
+                k = min(seg, n_steps - done)
+                done += k
+                bar.update((hi - lo) * k)
+                if not np.any(np.asarray(st)[: hi - lo] == RESULTS.successful):
+                    bar.update((hi - lo) * (n_steps - done))  # every line stopped
+                    break
+            st_o[lo:hi] = np.asarray(st)[: hi - lo]
+            step_o[lo:hi] = np.asarray(step)[: hi - lo]
+            x_o[lo:hi], X_o[lo:hi] = np.asarray(x)[: hi - lo], np.asarray(Xo)[: hi - lo]
+            s_o[lo:hi], L_o[lo:hi], dphi_o[lo:hi] = (np.asarray(a)[: hi - lo] for a in (s, L, dphi))
+    finally:
+        bar.close()
+    return dict(status=st_o, step=step_o, x=x_o, X_out=X_o, s=s_o, L=L_o, dphi=dphi_o)
 
-    def trace(m):
-        fn = _StepFn(m)
-        st_o = np.zeros(N, np.int32)
-        step_o = np.full(N, -1, np.int64)
-        x_o, X_o = np.zeros((N, 3)), np.zeros((N, 3))
-        s_o, L_o, dphi_o = np.zeros(N), np.zeros(N), np.zeros(N)
-        bar = _Bar(progress, N * n_steps, "Tracing to the wall")
-        try:
-            for lo, hi in _chunks(N, C):
-                x = jnp.asarray(_pad(pts[lo:hi], C))
-                s, phi = _start(fn, tor, x)
-                st = jnp.zeros(C, jnp.int32)
-                step = jnp.full(C, -1, jnp.int32)
-                Xo, L, dphi = x, jnp.zeros(C), jnp.zeros(C)
-                done = 0
-                while done < n_steps:
-                    x, st, step, Xo, s, phi, L, dphi = _wall_scan(
-                        fn, seg, tor, Rv, Zv, x, st, step, Xo, s, phi, L, dphi, jnp.asarray(done), hj,
-                        jnp.asarray(n_steps))
-                    k = min(seg, n_steps - done)
-                    done += k
-                    bar.update((hi - lo) * k)
-                    if not np.any(np.asarray(st)[: hi - lo] == RESULTS.successful):
-                        bar.update((hi - lo) * (n_steps - done))  # every line stopped
-                        break
-                st_o[lo:hi] = np.asarray(st)[: hi - lo]
-                step_o[lo:hi] = np.asarray(step)[: hi - lo]
-                x_o[lo:hi], X_o[lo:hi] = np.asarray(x)[: hi - lo], np.asarray(Xo)[: hi - lo]
-                s_o[lo:hi], L_o[lo:hi], dphi_o[lo:hi] = (np.asarray(a)[: hi - lo] for a in (s, L, dphi))
-        finally:
-            bar.close()
 
-        hit = step_o >= 0
-        rows = np.flatnonzero(hit)
-        M = rows.size
-        Y, th, dL, dph, fb = np.zeros((M, 3)), np.zeros(M), np.zeros(M), np.zeros(M), np.zeros(M, bool)
-        B = min(1 << max(M - 1, 1).bit_length(), 2**12)  # power-of-two buckets: few compilations
-        for lo, hi in _chunks(M, B):
-            r = rows[lo:hi]
-            out = _exit_kernel(fn, tor, Rv, Zv, jnp.asarray(_pad(x_o[r], B)), jnp.asarray(_pad(X_o[r], B)),
-                               jnp.asarray(_pad(s_o[r, None], B)[:, 0]), hj, tol)
-            Y[lo:hi], th[lo:hi], dL[lo:hi], dph[lo:hi], fb[lo:hi] = (np.asarray(a)[: hi - lo] for a in out)
+def _trace_native(method, pts, h, n_steps, wall, tor, progress) -> dict:
+    """The native trace to the wall (``vp_wall``, :mod:`vpforms.backends.native.walls`): the raw
+    per-line arrays of :func:`_finish`."""
+    from ..backends.native.walls import run_wall
 
-        nan3 = np.full((N, 3), np.nan)
-        exit_point, theta = nan3.copy(), np.full(N, np.nan)
-        exit_point[rows], theta[rows] = Y, th
-        L_o[rows] += dL
-        dphi_o[rows] += dph
-        fallback = np.zeros(N, bool)
-        fallback[rows] = fb
-        if tor:
-            phi0 = pts[:, 1]
-            R_e = np.sqrt(2.0 * exit_point[:, 0])
-        else:
-            phi0 = np.arctan2(pts[:, 1], pts[:, 0])
-            R_e = np.hypot(exit_point[:, 0], exit_point[:, 1])
-        exit_phi = np.where(hit, phi0 + dphi_o, np.nan)
-        last = x_o.copy()
-        last[rows] = Y
-        return WallHits(
-            status=st_o, hit=hit, step=step_o, theta=theta,
-            t_exit=np.where(hit, t0 + (step_o + theta) * h, np.nan),
-            exit_point=exit_point, exit_RZ=np.stack([R_e, exit_point[:, 2]], axis=1), exit_phi=exit_phi,
-            connection_length=L_o, transits=dphi_o / (2 * np.pi), last_point=last, fallback=fallback,
-            wall=wall, h=h, n_steps=n_steps, t0=float(t0), method=describe(method),
-        )
+    field = method.field
+    spd = jax.jit(jax.vmap(lambda X: speed(X, field(X), tor)))
 
-    # a recovering method: the bare scan first, the recovering one only where a bare step (or a
-    # locating sub-step) failed; leaving the wall or the field's domain is a stop, not a failure
-    return bare_first(trace, method, lambda w: bool(
-        np.all((w.status == RESULTS.successful) | (w.status == RESULTS.left_domain)) and not w.fallback.any()))
+    def inside(R, Z):  # the JAX test, for steps recovered through JAX
+        return wall.contains(np.stack([R, Z], axis=1))
+
+    bar = _Bar(progress, pts.shape[0] * n_steps, "Tracing to the wall (native)")
+    try:
+        # below this margin (about 1e-12 of the wall's size) the kernel tests a point fully
+        r = run_wall(method, pts, h, n_steps, (wall._Rv, wall._Zv), 1e-12 * wall._scale, tor, inside,
+                     lambda X: np.asarray(spd(jnp.asarray(X))), bar.update)
+    finally:
+        bar.close()
+    return dict(status=r.status, step=r.step, x=r.x, X_out=r.X_out, s=r.s, L=r.L.copy(), dphi=r.dphi.copy())
+
+
+def _finish(pts, tor, wall, Rv, Zv, tol, hj, h, n_steps, t0, method, backend, reason, raw, fn) -> WallHits:
+    """Locate the exits of the lines that hit (on the step family of ``fn``; a recovering method's
+    family again where the bare one could not) and assemble the :class:`WallHits`."""
+    N = pts.shape[0]
+    st_o, step_o, x_o, X_o, s_o = raw["status"], raw["step"], raw["x"], raw["X_out"], raw["s"]
+    L_o, dphi_o = raw["L"], raw["dphi"]
+    hit = step_o >= 0
+    rows = np.flatnonzero(hit)
+    Y, th, dL, dph, fb = _locate_exits(fn, tor, Rv, Zv, x_o[rows], X_o[rows], s_o[rows], hj, tol)
+    if backend == "native" and fb.any() and bare_method(method) is not method:
+        # a sub-step of the bare family failed: the recovering family, as the JAX path's rerun
+        r = np.flatnonzero(fb)
+        Y[r], th[r], dL[r], dph[r], fb[r] = _locate_exits(
+            _StepFn(method), tor, Rv, Zv, x_o[rows[r]], X_o[rows[r]], s_o[rows[r]], hj, tol)
+    nan3 = np.full((N, 3), np.nan)
+    exit_point, theta = nan3.copy(), np.full(N, np.nan)
+    exit_point[rows], theta[rows] = Y, th
+    L_o[rows] += dL
+    dphi_o[rows] += dph
+    fallback = np.zeros(N, bool)
+    fallback[rows] = fb
+    _, phi0 = _cylindrical_np(pts, tor)
+    R_e, _ = _cylindrical_np(exit_point, tor)
+    exit_phi = np.where(hit, phi0 + dphi_o, np.nan)
+    last = x_o.copy()
+    last[rows] = Y
+    return WallHits(
+        status=st_o, hit=hit, step=step_o, theta=theta,
+        t_exit=np.where(hit, t0 + (step_o + theta) * h, np.nan),
+        exit_point=exit_point, exit_RZ=np.stack([R_e, exit_point[:, 2]], axis=1), exit_phi=exit_phi,
+        connection_length=L_o, transits=dphi_o / (2 * np.pi), last_point=last, fallback=fallback,
+        wall=wall, h=h, n_steps=n_steps, t0=float(t0), method=describe(method), backend=backend,
+        backend_reason=reason,
+    )
+
+
+#: exits located per call: one fixed batch shape (one compilation), so that a line's exit does not
+#: depend on how many others hit with it (XLA's code for other shapes can differ in the last bit)
+EXIT_BATCH = 256
+
+
+def _locate_exits(fn, tor, Rv, Zv, x, X, s, hj, tol):
+    """:func:`_exit_kernel` over (M, 3) exits in padded batches of :data:`EXIT_BATCH`."""
+    M = x.shape[0]
+    Y, th, dL, dph, fb = np.zeros((M, 3)), np.zeros(M), np.zeros(M), np.zeros(M), np.zeros(M, bool)
+    B = EXIT_BATCH
+    for lo, hi in _chunks(M, B):
+        out = _exit_kernel(fn, tor, Rv, Zv, jnp.asarray(_pad(x[lo:hi], B)), jnp.asarray(_pad(X[lo:hi], B)),
+                           jnp.asarray(_pad(s[lo:hi, None], B)[:, 0]), hj, tol)
+        Y[lo:hi], th[lo:hi], dL[lo:hi], dph[lo:hi], fb[lo:hi] = (np.asarray(a)[: hi - lo] for a in out)
+    return Y, th, dL, dph, fb

@@ -61,6 +61,10 @@ class Events:
         if k.any():
             self._keep(idx[k], n[k], np.concatenate([x[k], X[k]], axis=1), True)
 
+    def stopped(self, idx: np.ndarray) -> np.ndarray:
+        """Which of the lines ``idx`` the kernel stopped without a failure: none (sections stop no line)."""
+        return np.zeros(idx.size, bool)
+
     def _keep(self, line, step, states, recovered=False) -> None:
         self._parts.append((line.copy(), step.copy(), states.copy(), np.full(line.size, recovered)))
 

@@ -24,6 +24,7 @@ from ..._solution import make_solution, saved_steps
 from .build import build
 from .codegen import CDEF, kernel_parts
 from .codegen.sections import SECTIONS_CDEF
+from .codegen.walls import WALL_CDEF
 
 __all__ = ["NativeKernel", "integrate_native", "run_points", "run_saving"]
 
@@ -35,12 +36,13 @@ class NativeKernel:
     """The compiled ``vp_run`` of one method (built on first use, cached on disk) and the field's
     run-time data ``fd`` (a spline's knots and coefficients; None without: NULL is passed), so
     that a new grid of the same structure reuses the compiled kernel; with ``entry="sections"``
-    its ``vp_sections`` and ``vp_locate`` instead (:mod:`.codegen.sections`, :meth:`sections`)."""
+    its ``vp_sections`` and ``vp_locate`` instead (:mod:`.codegen.sections`, :meth:`sections`), with
+    ``entry="wall"`` its ``vp_wall`` (:mod:`.codegen.walls`, :mod:`.walls`)."""
 
     def __init__(self, method: Any, engine: str = "auto", entry: str = "run"):
         self.method = method
         self.source, self.data = kernel_parts(method, engine, entry)
-        self.lib = build(self.source, CDEF if entry == "run" else SECTIONS_CDEF)
+        self.lib = build(self.source, {"run": CDEF, "sections": SECTIONS_CDEF, "wall": WALL_CDEF}[entry])
         from cffi import FFI
 
         self._ffi = FFI()
@@ -110,7 +112,9 @@ def _advance_with_recovery(kernel, method, x, status, n, recovered, n_target, h,
     (:mod:`vpforms._recovery`: the same alternatives, in the same order) and go on natively.
     ``saving`` = (save_every, n_total, xs): the kernel writes the saves (:meth:`NativeKernel.advance`);
     a recovered step's own save is written here. ``events`` (:class:`.events.Events`): the kernel
-    records section crossings instead of saving; a recovered step is checked for one here."""
+    records section crossings instead of saving; a recovered step is checked for one here. Or
+    (:class:`.walls.WallRun`) the kernel stops lines at a wall; a recovered step that leaves it
+    (``events.recovered`` returns that mask) stops its line there."""
     lazy = bare_method(method) is not method
     save_every, n_total, xs = saving if saving is not None else (0, 0, None)
     while True:
@@ -122,6 +126,8 @@ def _advance_with_recovery(kernel, method, x, status, n, recovered, n_target, h,
         idx = np.flatnonzero((before == RESULTS.successful) & (status != RESULTS.successful))
         # a non-finite state fails every alternative too (each maps the same point): not tried
         idx = idx[np.all(np.isfinite(x[idx]), axis=1)]
+        if events is not None:  # a line the kernel stopped at a wall did not fail: not retried
+            idx = idx[~events.stopped(idx)]
         if idx.size == 0 or not lazy:
             return
         X, st, code = recover_points(method, x[idx], h)
@@ -130,9 +136,13 @@ def _advance_with_recovery(kernel, method, x, status, n, recovered, n_target, h,
         g = idx[good]
         if g.size == 0:
             return
+        Xg = X[good]
         if events is not None:  # the recovered step n → n+1, from x (before) to X
-            events.recovered(g, n[g], x[g], X[good])
-        x[g] = X[good]
+            stop = events.recovered(g, n[g], x[g], Xg)
+            if stop is not None:  # a wall (.walls): the lines it takes out stay at x_n, stopped
+                status[g[stop]] = RESULTS.left_domain
+                g, Xg = g[~stop], Xg[~stop]
+        x[g] = Xg
         status[g] = RESULTS.successful
         n[g] += 1
         recovered[g] += 1

@@ -57,6 +57,7 @@ from .potentials import (
     field_reason,
 )
 from .sections import sections_entry
+from .walls import speed_fn, wall_entry
 
 __all__ = ["BLOCK", "CDEF", "kernel_parts", "kernel_source"]
 
@@ -447,8 +448,8 @@ def kernel_source(method: Any, engine: str = "auto", entry: str = "run") -> str:
 
 
 def kernel_parts(method: Any, engine: str = "auto", entry: str = "run") -> tuple[str, Any]:
-    """(the C source of ``vp_run`` — or, with ``entry="sections"``, of ``vp_sections`` — for
-    ``method``, its run-time data ``fd``: the flat array of :func:`.splines.field_data`, or None
+    """(the C source of ``vp_run`` — or, with ``entry="sections"``, of ``vp_sections``; with
+    ``entry="wall"``, of ``vp_wall`` (:mod:`.walls`) — for ``method``, its run-time data ``fd``: the flat array of :func:`.splines.field_data`, or None
     for a field without data).
 
     ``engine="newton"`` iterates Newton on every solve, also where the equation is affine in its
@@ -460,11 +461,20 @@ def kernel_parts(method: Any, engine: str = "auto", entry: str = "run") -> tuple
     solves of :func:`vpforms._newton.newton_scalar`), which gives it its exact status."""
     if engine not in ("auto", "newton"):
         raise ValueError(f"engine must be 'auto' or 'newton', got {engine!r}")
-    if entry not in ("run", "sections"):
-        raise ValueError(f"entry must be 'run' or 'sections', got {entry!r}")
+    if entry not in ("run", "sections", "wall"):
+        raise ValueError(f"entry must be 'run', 'sections' or 'wall', got {entry!r}")
     with splines.collecting() as refs:
         source = _kernel(method, engine, entry)
     return source, splines.field_data(refs)
+
+
+def _wall_c(method: Any, lanes: dict[str, str]) -> str:
+    """``vp_wall`` (:mod:`.walls`) for ``method``: its field's |B| in C and the entry."""
+    field = getattr(method, "field", None)
+    why = "the method has no field" if field is None else field_reason(field)
+    if why is not None:
+        raise ValueError(f"no native wall tracing: {why}")
+    return wall_entry(lanes, speed_fn(field, field_exprs))
 
 
 def _kernel(method: Any, engine: str, entry: str) -> str:
@@ -515,7 +525,7 @@ def _kernel(method: Any, engine: str, entry: str) -> str:
 {fns}
 /* one step of {describe(method)}: {len(stages)} stage(s), generated from SymPy */
 {steps}
-""" + (sections_entry(lanes) if entry == "sections" else f"""/* Saves (save_every > 0): xs has shape (N, n_saves + 1, 3), slot 0 the initial state (not
+""" + (sections_entry(lanes) if entry == "sections" else _wall_c(method, lanes) if entry == "wall" else f"""/* Saves (save_every > 0): xs has shape (N, n_saves + 1, 3), slot 0 the initial state (not
    written here), slot j the state after step j·save_every and slot n_saves after n_total (the last
    step, saved even off the stride). A live lane at a saved step writes its slot; a lane that stops
    (its status set, now or before this call) fills its later slots with its frozen state, as the
