@@ -62,7 +62,7 @@ int64_t vp_sections(int64_t N, double *x, int32_t *status, int64_t *n, int64_t n
                     int64_t cap, int64_t *ev_line, int64_t *ev_step, double *ev_x, const double *fd) {
     int64_t count = 0;
     int64_t nb = (N + B - 1) / B;
-    #pragma omp parallel for schedule(dynamic, 1)
+    #pragma omp parallel for schedule(dynamic, 1) if (nb > 1)
     for (int64_t b = 0; b < nb; b++) {
 @LOAD@        double q[B], p1[B], p2[B], p3[B];
         int64_t n0[B];
@@ -115,7 +115,7 @@ static inline double vp_sign(double v) { return v > 0 ? 1.0 : v < 0 ? -1.0 : v =
 void vp_locate(int64_t M, double *x, double *X, double *lvl, double h, int32_t kind, int32_t axis,
                double *Y, double *theta, int32_t *undecided, const double *fd) {
     int64_t nb = (M + B - 1) / B;
-    #pragma omp parallel for schedule(dynamic, 1)
+    #pragma omp parallel for schedule(dynamic, 1) if (nb > 1)
     for (int64_t blk = 0; blk < nb; blk++) {  /* B crossings a block, iterated in lockstep */
         int64_t lo = blk * B;
         int m = (int)(M - lo < B ? M - lo : B);

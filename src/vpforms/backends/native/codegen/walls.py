@@ -109,7 +109,7 @@ void vp_wall(int64_t N, double *x, int32_t *status, int64_t *n, int64_t n_target
              const double *fd) {
     int64_t nb = (N + B - 1) / B;
     double ah = fabs(h);
-    #pragma omp parallel for schedule(dynamic, 1)
+    #pragma omp parallel for schedule(dynamic, 1) if (nb > 1)  /* one block: no thread team to wake and wait for */
     for (int64_t b = 0; b < nb; b++) {
 @LOAD@        /* per lane: |B|, φ, R at the last point reached; ∫|B| dt, Σ dφ; the margin; and the step's
            candidates (c*) before the wall test accepts them */
