@@ -25,7 +25,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # benchmarks/_be
 from _bench import machine, parser, write_results
 
 from vpforms import compose, integrate, scheme
-from vpforms._methods.compose import stages
+from vpforms._methods._compose import stages
 from vpforms.diagnostics import fit_order, reference_solution
 from vpforms.problems import get
 

@@ -27,7 +27,7 @@ from vpforms._methods import (
     Composition,
     SymmetricPair,
 )
-from vpforms._methods.compose import DEFAULT, from_splitting, stages
+from vpforms._methods._compose import DEFAULT, from_splitting, stages
 from vpforms.problems import get
 
 from .test_methods_helpers import fit_order, reference_flow, step_det

@@ -22,7 +22,7 @@ import numpy as np
 
 from ._errors import RECOVERY, RESULTS
 from ._methods._base import Method
-from ._methods.compose import AdjointComposition, Composition, SymmetricPair
+from ._methods._compose import AdjointComposition, Composition, SymmetricPair
 from ._methods.recover import Recovering
 from ._methods.rk4 import RK4
 

@@ -51,6 +51,8 @@ from ._integrate import _check_run
 from ._solution import saved_steps as _global_steps
 from ._spec import method_from_spec
 from .backends import select_backend
+from .fieldlines._wall import WallHits, check_wall_run, wall_backend
+from .fieldlines._wall import trace_to_wall as _fl_trace_to_wall
 
 __all__ = ["run", "run_chunk", "trace_to_wall"]
 
@@ -339,9 +341,7 @@ def run(method: Any, x0: Any, h: float, n_steps: int, *, store: str, save_every:
 
 def _wall_chunk(spec_text: str, x: np.ndarray, h: float, n_steps: int, wall: Any, t0: float, backend: str):
     """One chunk of :func:`trace_to_wall`: the lines ``x`` traced to the wall in this process."""
-    from .fieldlines import trace_to_wall as trace
-
-    return trace(_method(spec_text), x, h, n_steps, wall, t0=t0, progress=False, backend=backend)
+    return _fl_trace_to_wall(_method(spec_text), x, h, n_steps, wall, t0=t0, progress=False, backend=backend)
 
 
 def trace_to_wall(method: Any, x0: Any, h: float, n_steps: int, wall: Any, *, t0: float = 0.0,
@@ -359,8 +359,6 @@ def trace_to_wall(method: Any, x0: Any, h: float, n_steps: int, wall: Any, *, t0
     step, compiled apart (the last bit can differ). Returns the
     :class:`~vpforms.fieldlines.WallHits` of all the lines, in order.
     """
-    from .fieldlines._wall import WallHits, check_wall_run, wall_backend
-
     pts, h, n_steps = check_wall_run(method, x0, h, n_steps, wall, t0)
     C = int(chunk_particles)
     if C < 1:

@@ -7,14 +7,14 @@ higher order by composition (compose). Every recipe hands its potentials to the 
 """
 
 from ._base import Adjoint, GeneratingMethod, Method, RecipeError, Relabelled
-from .compose import (ADJOINT_COMPOSITIONS, COMPOSITIONS, AdjointComposition, Composition,
+from ._compose import (ADJOINT_COMPOSITIONS, COMPOSITIONS, AdjointComposition, Composition,
                       SymmetricPair, compose, triple_jump)
 from .rk4 import RK4
 from .correction import QuispelCorrection, QuispelS1, QuispelS2
 from .dl_dl import DLDL
 from .s1 import S1
 from .s2 import S2
-from .scheme import representative_method, scheme
+from ._scheme import representative_method, scheme
 from .se_dl import SEDL
 from .se_se import SESE, SESEFast
 

@@ -23,7 +23,7 @@ from jax import lax
 from scipy.integrate import solve_ivp
 
 from ..problems import get
-from .scheme import scheme
+from ._scheme import scheme
 
 FIELDS = {  # problem, box of random points, T
     "linear": ("linear", (-1.0, 1.0), 0.4),

@@ -24,7 +24,7 @@ import numpy as np
 
 from .._case import Case
 from .._errors import RESULTS, VPFormsError
-from .._methods.scheme import class_name
+from .._methods._scheme import class_name
 from .._spec import method_from_spec, method_spec
 from .twist import _statuses, twist_map
 

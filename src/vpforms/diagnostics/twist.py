@@ -22,7 +22,7 @@ import numpy as np
 from .. import _config  # noqa: F401
 from .._case import CLASSES, Case, cases
 from .._errors import RESULTS, VPFormsError
-from .._methods.scheme import scheme
+from .._methods._scheme import scheme
 from .._solution import describe
 
 __all__ = ["TwistRow", "TwistMap", "twist_map"]

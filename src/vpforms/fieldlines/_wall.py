@@ -28,6 +28,8 @@ from .._progress import _Bar
 from .._recovery import bare_first, bare_method
 from ..backends import NativeUnavailableError, select_backend
 from ..backends.jax_runner import _StepFn, auto_chunk_size
+from ..backends.native.codegen.potentials import field_reason
+from ..backends.native.walls import run_wall
 from ..diagnostics._common import _chunks, _pad
 from ..diagnostics._locate import illinois
 from ._geometry import cylindrical, is_toroidal, speed
@@ -349,8 +351,6 @@ def _cylindrical_np(x: np.ndarray, toroidal: bool) -> tuple[np.ndarray, np.ndarr
 
 def _native_reason(method: Any) -> str | None:
     """Why the wall kernel cannot run ``method`` natively (its |B| in C), or None."""
-    from ..backends.native.codegen.potentials import field_reason
-
     return field_reason(method.field)
 
 
@@ -395,8 +395,6 @@ def _trace_jax(fn, pts, h, n_steps, tor, Rv, Zv, hj, C, progress) -> dict:
 def _trace_native(method, pts, h, n_steps, wall, tor, progress) -> dict:
     """The native trace to the wall (``vp_wall``, :mod:`vpforms.backends.native.walls`): the raw
     per-line arrays of :func:`_finish`."""
-    from ..backends.native.walls import run_wall
-
     field = method.field
     spd = jax.jit(jax.vmap(lambda X: speed(X, field(X), tor)))
 

@@ -7,7 +7,7 @@ from typing import Any
 from .._case import Case, cases
 from .._methods import Method, compose, scheme
 from .._methods._representatives import REPRESENTATIVES
-from .._methods.scheme import class_name
+from .._methods._scheme import class_name
 from ..fields import Field
 
 __all__ = ["advances_phi_exactly", "phi_exact_cases", "phi_time_scheme"]

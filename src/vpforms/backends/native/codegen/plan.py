@@ -21,7 +21,7 @@ from __future__ import annotations
 from typing import Any
 
 from ...._methods._base import Adjoint, Method, Relabelled
-from ...._methods.compose import AdjointComposition, Composition, SymmetricPair
+from ...._methods._compose import AdjointComposition, Composition, SymmetricPair
 from ...._methods.rk4 import RK4
 from .potentials import RK4Stage, class_stage, field_reason
 from .splines import domain_reason
