@@ -144,3 +144,55 @@ def test_toroidal_spline_field_native_equals_jax():
     jx = trace_to_wall(m, x0, 0.02, 400, wall, progress=False, backend="jax")
     assert 0 < nat.n_hit < R.size, nat.summary()
     assert_same(nat, jx, atol=1e-10)
+
+
+# ------------------------------------------------------------------ default walls of the problems
+def test_default_walls_of_the_problems():
+    """The tokamak's wall is the flux surface ψ = 0.11 R₀⁴ (inside the separatrix ψ = R₀⁴/8), the
+    Stokes flow's the half disc r ≤ 1.01 about its invariant unit ball; both hold the problems'
+    default and sampled starting points, in either coordinates of the tokamak."""
+    for R0 in (1.0, 1.3):
+        wall = problems.get("tokamak", R0=R0).wall
+        R, Z = wall.vertices.T
+        psi = (R**2 - R0**2) ** 2 / 8 + R**2 * Z**2 / 2  # the flux function, by hand
+        np.testing.assert_allclose(psi, 0.11 * R0**4, rtol=1e-12)
+        assert R.min() > 0.2 * R0 and R.max() < np.sqrt(2) * R0  # inside the separatrix
+    for prob in (problems.get("tokamak"), problems.get("tokamak", coordinates="toroidal"),
+                 problems.get("stokes_sphere")):
+        tor = prob.field.coordinates.startswith("toroidal")
+        for x in (prob.x0, prob.initial_conditions(500, seed=1)):
+            R = np.sqrt(2 * x[:, 0]) if tor else np.hypot(x[:, 0], x[:, 1])
+            assert prob.wall.contains(np.stack([R, x[:, 2]], 1)).all(), prob.name
+    R, Z = problems.get("stokes_sphere").wall.vertices.T
+    arc = R > 0
+    np.testing.assert_allclose(np.hypot(R[arc], Z[arc]), 1.01, rtol=1e-15)
+    assert problems.get("abc").wall is None
+
+
+def test_cli_wall_argument():
+    from vpforms.cli.fieldlines import _wall_arg
+
+    assert _wall_arg("default") == "default" and _wall_arg(" Default ") == "default"
+    assert _wall_arg("0.6,-0.3,1.4,-0.3") == [0.6, -0.3, 1.4, -0.3]
+
+
+@native
+@pytest.mark.slow  # S1 on the Stokes flow, native and JAX compilations (~30 s)
+def test_stokes_lines_stop_at_the_default_wall_instead_of_overflowing():
+    """S1 at h = 0.1 on stokes_sphere carries some streamlines out of the invariant ball; without a
+    wall they grow until a step fails. With the problem's wall every line either stays inside or stops
+    with status left_domain, its exit on the circle r = 1.01 — no failure, no overflow."""
+    prob = problems.get("stokes_sphere")
+    m = vpforms.scheme(prob.field, "S1")
+    x0 = prob.initial_conditions(200, seed=0)
+    free = vpforms.integrate(m, x0, 0.1, 2000, progress=False)
+    assert np.count_nonzero(np.asarray(free.status) != RESULTS.successful) > 0  # escaped and failed
+    hits = trace_to_wall(m, x0, 0.1, 2000, prob.wall, progress=False)
+    assert hits.n_failed == 0 and hits.n_hit > 0
+    np.testing.assert_array_equal(hits.status, np.where(hits.hit, RESULTS.left_domain, RESULTS.successful))
+    rows = np.flatnonzero(hits.hit)
+    np.testing.assert_allclose(np.hypot(*hits.exit_RZ[rows].T), 1.01 * np.cos(np.pi / 128), rtol=0,
+                               atol=1.01 * (1 - np.cos(np.pi / 128)) + 1e-12)  # on the 64-gon's edges
+    assert np.abs(np.asarray(prob.wall.signed_distance(*hits.exit_RZ[rows].T))).max() <= 1e-9
+    # the lines that failed without the wall are among those it stops
+    assert np.all(hits.hit[np.asarray(free.status) != RESULTS.successful])

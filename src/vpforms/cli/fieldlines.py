@@ -40,8 +40,13 @@ from ._common import (
 )
 
 
+def _wall_arg(text: str):
+    """``--wall``: "default" (the problem's own wall) or the polygon's numbers."""
+    return "default" if text.strip().lower() == "default" else _finite_list(text)
+
+
 def _field_source(args):
-    """(field, nfp, axis guess, default start radii span, name) of the chosen source."""
+    """(field, nfp, axis guess, default start radii span, name, default wall or None) of the chosen source."""
     from .. import problems
     from ..problems.coil_fields import spline_coil_field
 
@@ -65,7 +70,7 @@ def _field_source(args):
         nfp = int(round(2 * math.pi / P))
         if guess is None:
             raise CLIError("--coils/--mgrid need --axis-guess R,Z (a point near the magnetic axis on φ = 0)")
-        return field, nfp, guess, None, name
+        return field, nfp, guess, None, name, None
     params = _parse_params(args.param)
     key = args.problem.lower().replace("-", "_")
     if key == "tokamak":
@@ -83,7 +88,7 @@ def _field_source(args):
         raise CLIError(f"problem {args.problem!r} has no axis guess: give --axis-guess R,Z")
     R = np.asarray(cylindrical(prob.x0, True)[0]) if prob.field.coordinates.startswith("toroidal") else \
         np.hypot(prob.x0[:, 0], prob.x0[:, 1])
-    return prob.field, nfp, guess, (float(R.min() - guess[0]), float(R.max() - guess[0])), prob.name
+    return prob.field, nfp, guess, (float(R.min() - guess[0]), float(R.max() - guess[0])), prob.name, prob.wall
 
 
 def _cmd_fieldlines(args, console) -> int:
@@ -93,7 +98,17 @@ def _cmd_fieldlines(args, console) -> int:
                   "with --coils/--mgrid (the field is the file's)")
     refuse_unless(args, ("lines",), not args.radii, "with --radii (it gives the start points)")
     refuse_unless(args, ("island_range", "island_scan"), bool(args.islands), "without --islands M")
-    field, nfp, guess, span, name = _field_source(args)
+    field, nfp, guess, span, name, default_wall = _field_source(args)
+    wall = None
+    if args.wall == "default":
+        if default_wall is None:
+            raise CLIError(f"--wall default: {name} has no default wall; give the polygon R1,Z1,R2,Z2,…")
+        wall = default_wall
+    elif args.wall:
+        v = np.asarray(args.wall, float)
+        if v.size % 2 or v.size < 8:
+            raise CLIError("--wall takes R1,Z1,R2,Z2,… (a closed polygon: the last vertex repeats the first)")
+        wall = Wall(v[0::2], v[1::2])
     method = _method_from_args(args, field)
     t_all = time.perf_counter()
     t = time.perf_counter()
@@ -121,13 +136,8 @@ def _cmd_fieldlines(args, console) -> int:
     if args.islands:
         lo, hi = (args.island_range if args.island_range else (Rs.min(), Rs.max()))
         chains = island_chain(method, args.islands, args.h, np.linspace(lo, hi, args.island_scan), axis.Z, args.phi, nfp)
-    wall = None
     hits = None
-    if args.wall:
-        v = np.asarray(args.wall, float)
-        if v.size % 2 or v.size < 8:
-            raise CLIError("--wall takes R1,Z1,R2,Z2,… (a closed polygon: the last vertex repeats the first)")
-        wall = Wall(v[0::2], v[1::2])
+    if wall is not None:
         hits = trace_to_wall(method, x0, args.h, steps, wall, progress="auto")
         sec = sec.before(hits.t_exit)  # a line ends where it meets the wall
     sec.to_csv(args.csv)
@@ -183,7 +193,8 @@ def register(sub) -> None:
     p.add_argument("--islands", type=_positive_int, default=None, metavar="M", help="find the m-island chains")
     p.add_argument("--island-range", type=_finite_list, default=None, help="RMIN,RMAX of the island scan")
     p.add_argument("--island-scan", type=_positive_int, default=33, help="scan points (default 33)")
-    p.add_argument("--wall", type=_finite_list, default=None, help="closed (R, Z) polygon R1,Z1,…,R1,Z1")
+    p.add_argument("--wall", type=_wall_arg, default=None,
+                   help="closed (R, Z) polygon R1,Z1,…,R1,Z1, or 'default': the problem's own wall")
     p.add_argument("--png", default="vpforms-fieldlines.png", help="section figure")
     p.add_argument("--iota-png", default="vpforms-iota.png", help="ι profile figure")
     p.add_argument("--csv", default="vpforms-fieldlines.csv", help="section points CSV")

@@ -33,7 +33,7 @@ from ..backends.native.walls import run_wall
 from ..diagnostics._common import _chunks, _pad
 from ..diagnostics._locate import illinois
 from ._geometry import cylindrical, is_toroidal, speed
-from ._polygon import Wall, _fmt, _inside_kernel, _signed_distance_kernel
+from .._polygon import Wall, _fmt, _inside_kernel, _signed_distance_kernel
 
 __all__ = ["Wall", "WallHits", "trace_to_wall"]
 

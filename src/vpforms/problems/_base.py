@@ -45,6 +45,8 @@ class Problem:
         a sensible bounding box ((lo, hi),)*3 for sampling and plots.
     description:
         one line.
+    wall:
+        the physical domain, an (R, Z) polygon (:class:`vpforms.fieldlines.Wall`), or None.
     """
 
     name: str
@@ -62,6 +64,10 @@ class Problem:
     )
     #: for toroidal fields: a guess (R, Z) of the magnetic axis on φ = 0 (field-line studies, #21)
     axis_guess: tuple | None = None
+    #: the physical domain as an (R, Z) polygon about the x₃ axis (:class:`vpforms.fieldlines.Wall`),
+    #: where the problem has one: ``trace_to_wall(method, x0, h, n, problem.wall)`` stops the lines
+    #: that leave it with status ``left_domain`` (#21 item 4); None where there is none
+    wall: Any = None
 
     def initial_conditions(self, n: int, seed: int = 0) -> np.ndarray:
         """n seeded initial conditions in the problem's natural region, shape (n, 3)."""

@@ -22,6 +22,7 @@ from functools import lru_cache
 import numpy as np
 import sympy as sp
 
+from .._polygon import Wall
 from ..fields import SYMBOLS, Field
 from ._base import Problem, invariant_callables, real_param
 
@@ -76,7 +77,19 @@ def make(Omega=None, eps=None) -> Problem:
         box=box,
         description="quadratic Stokes flow in the unit sphere (Bajer-Moffatt type)",
         sampler=sampler,
+        wall=default_wall(),
     )
+
+
+def default_wall(radius: float = 1.01, n: int = 64) -> Wall:
+    """The default wall: the half disc R² + x₃² ≤ radius² of the (R, x₃) plane (R = √(x₁² + x₂²)),
+    closed along the axis R = 0, n edges on the arc. The unit ball is invariant; a streamline that
+    a method carries out of it by 1 % stops there with status ``left_domain`` instead of growing
+    until a step overflows."""
+    a = np.pi * (np.arange(n + 1) / n - 0.5)
+    R, Z = radius * np.cos(a), radius * np.sin(a)
+    R[0] = R[-1] = 0.0  # exactly on the axis
+    return Wall(np.append(R, R[0]), np.append(Z, Z[0]))
 
 
 @lru_cache(maxsize=1)

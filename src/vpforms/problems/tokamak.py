@@ -34,12 +34,14 @@ usual flux-function form B = ∇ψ×∇φ + B_tor + δB of tokamak field-line st
 
 from __future__ import annotations
 
+import math
 from functools import lru_cache
 
 import numpy as np
 import sympy as sp
 from scipy.special import ellipk
 
+from .._polygon import Wall
 from ..fields import SYMBOLS, Field
 from ._base import Problem, invariant_callables, real_param
 
@@ -175,7 +177,25 @@ def make(R0=None, B0=None, eps=None, m=None, n=None, coordinates: str = "cartesi
         description=f"toroidal field-line model with ({m},{n}) islands",
         sampler=sampler,
         axis_guess=(r0, 0.0),
+        wall=default_wall(r0),
     )
+
+
+#: ψ of the default wall, in units of R₀⁴: inside the separatrix ψ = R₀⁴/8
+WALL_PSI = 0.11
+
+
+def default_wall(R0: float = 1.0, n: int = 48) -> Wall:
+    """The default wall: the (R, Z) polygon through 2n points of the unperturbed flux surface
+    ψ = 0.11 R₀⁴, just inside the separatrix ψ = R₀⁴/8 (a limiter on the last closed surfaces):
+    R from √(R₀² ∓ √(8ψ)) (0.249 R₀ … 1.392 R₀ on the midplane), Z = ±√((2ψ − (R² − R₀²)²/4)/R²)."""
+    psi = WALL_PSI * R0**4
+    lo, hi = math.sqrt(R0**2 - math.sqrt(8 * psi)), math.sqrt(R0**2 + math.sqrt(8 * psi))
+    R = lo + (hi - lo) * 0.5 * (1 - np.cos(np.pi * np.arange(n + 1) / n))  # clustered at the ends
+    Z = np.sqrt(np.clip((2 * psi - (R**2 - R0**2) ** 2 / 4) / R**2, 0.0, None))
+    Rs = np.concatenate([R, R[-2:0:-1], R[:1]])
+    Zs = np.concatenate([Z, -Z[-2:0:-1], Z[:1]])
+    return Wall(Rs, Zs)
 
 
 @lru_cache(maxsize=1)

@@ -6,7 +6,7 @@ lane takes from x_n to X = Ψ_h(x_n):
 * the cylindrical (R, φ, Z) of X (Cartesian points: R = hypot(X₁, X₂), φ = atan2(X₂, X₁); the
   toroidal coordinates (u = R²/2, φ, Z): R = √(2u), φ = X₂);
 * the wall's even-odd test on (R, Z) (the same arithmetic as ``_inside_kernel`` of
-  :mod:`vpforms.fieldlines._polygon`). A lane carries a *margin*: the distance from its last fully
+  :mod:`vpforms._polygon`). A lane carries a *margin*: the distance from its last fully
   tested point to the polygon minus the length of the (R, Z) chords it has moved since. While the
   margin is positive the point is inside (the distance is 1-Lipschitz: a path shorter than the
   distance stays in the open disc that holds no edge), so the O(vertices) test runs only near the

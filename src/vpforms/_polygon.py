@@ -14,7 +14,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .. import _config  # noqa: F401  (float64 on)
+from . import _config  # noqa: F401  (float64 on)
 
 __all__ = ["Wall"]
 
