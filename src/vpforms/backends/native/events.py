@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from .runner import CALLS, _advance_with_recovery, _start, kernel_for
+from .runner import CALLS, kernel_for, run_with_events
 
 __all__ = ["Crossings", "Events", "locate", "run_events"]
 
@@ -106,16 +106,8 @@ def run_events(method: Any, pts: np.ndarray, h: float, n_steps: int, surface: tu
     granularity), each followed by the JAX recovery of the steps that failed in it."""
     kernel = kernel_for(method, engine, "sections")
     N = pts.shape[0]
-    x, status, n, recovered = _start(pts)
     events = Events(surface, direction, crossed, 4 * N + 1024 if capacity is None else capacity)
-    how: dict[str, int] = {}
-    ends = np.unique(np.linspace(0, n_steps, min(n_steps, calls) + 1).astype(np.int64))[1:]
-    done = 0
-    for end in ends:
-        _advance_with_recovery(kernel, method, x, status, n, recovered, int(end), h, how, events=events)
-        if progress_cb is not None:
-            progress_cb(N * int(end - done))
-        done = int(end)
+    x, status, _, recovered, how = run_with_events(kernel, method, pts, h, n_steps, events, progress_cb, calls)
     line, step, states, rec = events.collected()
     order = np.lexsort((step, line))
     return Crossings(line=line[order], step=step[order], before=states[order, :3], after=states[order, 3:],

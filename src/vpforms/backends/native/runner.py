@@ -160,6 +160,28 @@ def _start(pts):
             np.zeros(N, dtype=np.int64), np.zeros(N, dtype=np.int64))
 
 
+def run_with_events(kernel, method, pts, h, n_steps, events, progress_cb=None, calls=CALLS):
+    """Advance points (N, 3) natively for n_steps steps of h with ``events`` (the section crossings
+    of :class:`.events.Events`, the wall of :class:`.walls.WallRun`) in at most ``calls`` kernel
+    calls (the progress bar's granularity), each followed by the JAX recovery of the steps that
+    failed in it; stops early once no line is live. Returns (x, status, n, recovered, how)."""
+    N = pts.shape[0]
+    x, status, n, recovered = _start(pts)
+    how: dict[str, int] = {}
+    ends = np.unique(np.linspace(0, n_steps, min(n_steps, calls) + 1).astype(np.int64))[1:]
+    done = 0
+    for end in ends:
+        _advance_with_recovery(kernel, method, x, status, n, recovered, int(end), h, how, events=events)
+        if progress_cb is not None:
+            progress_cb(N * int(end - done))
+        done = int(end)
+        if not np.any(status == RESULTS.successful):  # every line stopped
+            if progress_cb is not None:
+                progress_cb(N * int(n_steps - done))
+            break
+    return x, status, n, recovered, how
+
+
 def run_points(method, pts, h, steps, progress_cb=None, engine="auto", save=None, how=None):
     """Advance points (N, 3) natively and return (xs (N, S, 3), status, failed_step, recovered).
 

@@ -17,8 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from ..._errors import RESULTS
-from .runner import CALLS, _advance_with_recovery, _start, kernel_for
+from .runner import CALLS, kernel_for, run_with_events
 
 __all__ = ["WallRun", "WallTrace", "run_wall"]
 
@@ -110,20 +109,8 @@ def run_wall(method: Any, pts: np.ndarray, h: float, n_steps: int, polygon: tupl
     recovered through JAX. At most ``calls`` kernel calls (the progress bar's granularity)."""
     kernel = kernel_for(method, "auto", "wall")
     N = pts.shape[0]
-    x, status, n, recovered = _start(pts)
     run = WallRun(N, polygon, tolm, toroidal, inside, speed, h)
-    how: dict[str, int] = {}
-    ends = np.unique(np.linspace(0, n_steps, min(n_steps, calls) + 1).astype(np.int64))[1:]
-    done = 0
-    for end in ends:
-        _advance_with_recovery(kernel, method, x, status, n, recovered, int(end), h, how, events=run)
-        if progress_cb is not None:
-            progress_cb(N * int(end - done))
-        done = int(end)
-        if not np.any(status == RESULTS.successful):  # every line stopped
-            if progress_cb is not None:
-                progress_cb(N * int(n_steps - done))
-            break
+    x, status, _, recovered, how = run_with_events(kernel, method, pts, h, n_steps, run, progress_cb, calls)
     if N and run._init:  # n_steps = 0: no call was made; |B| at the starting points still counts
         run.s[:] = np.asarray(speed(x))
     return WallTrace(status=status, step=run.step, x=x, X_out=run.Xo, s=run.s, L=run.L, dphi=run.dphi,
