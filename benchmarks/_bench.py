@@ -42,6 +42,25 @@ def best_of(fn: Callable[[], Any], repeats: int) -> tuple[float, Any]:
     return best, out
 
 
+def interleaved(fns: dict[str, Callable[[], Any]], rounds: int) -> tuple[dict[str, float], dict[str, Any]]:
+    """The best wall time of each of ``fns`` over ``rounds`` interleaved rounds (one call of each per
+    round, so that a change of machine load touches all of them alike) and each one's last result."""
+    times, out = dict.fromkeys(fns, math.inf), {}
+    for _ in range(rounds):
+        for k, fn in fns.items():
+            t, out[k] = best_of(fn, 1)
+            times[k] = min(times[k], t)
+    return times, out
+
+
+def jax_cell(fn: Callable[[], Any], per: int, native_s: float) -> tuple[str, Any]:
+    """The JAX reference of a native timing: compile (one call), then one timed call; the table
+    cell "ns per unit (× native)" and its result."""
+    fn()
+    t, ref = best_of(fn, 1)
+    return f"{t * 1e9 / per:.0f} ({t / native_s:.1f}× native)", ref
+
+
 def machine(script: str, seconds: float, smoke: bool) -> str:
     """One line: the machine, the JAX and vpforms versions, the command and how long it ran."""
     import jax

@@ -23,7 +23,7 @@ import sys
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # benchmarks/_bench.py
-from _bench import best_of, machine, native_missing, parser, write_results
+from _bench import interleaved, jax_cell, machine, native_missing, parser, write_results
 
 import vpforms
 from vpforms import problems
@@ -62,22 +62,17 @@ def main(argv=None) -> int:
                                     progress=False, backend=backend)
 
         trace(), section("native")  # compile / load the kernels, warm the caches
-        times = {"trace": math.inf, "native": math.inf}
-        for _ in range(rounds):  # interleaved rounds, the best of each
-            times["trace"] = min(times["trace"], best_of(trace, 1)[0])
-            t, sec = best_of(lambda: section("native"), 1)
-            times["native"] = min(times["native"], t)
+        times, out = interleaved({"trace": trace, "native": lambda: section("native")}, rounds)
+        sec = out["native"]
         assert sec.backend == "native" and sec.n_fallback == 0
-        jax_cell = "—"
+        cell = "—"
         if with_jax:
-            section("jax")  # compile
-            tj, ref = best_of(lambda: section("jax"), 1)
+            cell, ref = jax_cell(lambda: section("jax"), N * n, times["native"])
             assert ref.points.shape == sec.points.shape
-            jax_cell = f"{tj * 1e9 / (N * n):.0f} ({tj / times['native']:.1f}× native)"
         M = sec.points.shape[0]
         rows.append(f"| {label} | {N:,} × {n} | {M:,} | {times['trace'] * 1e9 / (N * n):.1f} | "
                     f"{times['native'] * 1e9 / (N * n):.1f} | **{times['native'] / times['trace']:.2f}×** | "
-                    f"{jax_cell} |")
+                    f"{cell} |")
     load = os.getloadavg()
     lines = ["# What a Poincaré section costs on the native backend (issue #21 item 1)", "",
              (f"SE+SE order 2, native, 2 OpenMP threads; ns per particle-step (best of {rounds} interleaved "

@@ -20,13 +20,12 @@ wall trace does fewer steps than the plain one). Problems: the tokamak in toroid
 
 from __future__ import annotations
 
-import math
 import os
 import sys
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # benchmarks/_bench.py
-from _bench import best_of, machine, native_missing, parser, write_results
+from _bench import interleaved, jax_cell, machine, native_missing, parser, write_results
 
 import numpy as np
 
@@ -72,22 +71,17 @@ def main(argv=None) -> int:
                     return trace_to_wall(m, x0, h, n, wall, progress=False, backend=backend)
 
                 walled("native")  # compile / load the kernel and the exit locator
-                times = {"trace": math.inf, "native": math.inf}
-                for _ in range(rounds):  # interleaved rounds, the best of each
-                    times["trace"] = min(times["trace"], best_of(trace, 1)[0])
-                    t, hits = best_of(lambda: walled("native"), 1)
-                    times["native"] = min(times["native"], t)
+                times, out = interleaved({"trace": trace, "native": lambda: walled("native")}, rounds)
+                hits = out["native"]
                 assert hits.backend == "native" and hits.n_failed == 0
-                jax_cell = "—"
+                cell = "—"
                 if with_jax:
-                    walled("jax")  # compile
-                    tj, ref = best_of(lambda: walled("jax"), 1)
+                    cell, ref = jax_cell(lambda: walled("jax"), N * n, times["native"])
                     assert np.array_equal(ref.step, hits.step) and np.array_equal(ref.status, hits.status)
-                    jax_cell = f"{tj * 1e9 / (N * n):.0f} ({tj / times['native']:.1f}× native)"
                 ps = N * n
                 rows.append(f"| {flabel} | {wlabel} | {N:,} × {n} | {hits.n_hit:,} | "
                             f"{times['trace'] * 1e9 / ps:.1f} | {times['native'] * 1e9 / ps:.1f} | "
-                            f"**{times['native'] / times['trace']:.2f}×** | {jax_cell} |")
+                            f"**{times['native'] / times['trace']:.2f}×** | {cell} |")
     load = os.getloadavg()
     lines = ["# What a wall costs on the native backend (issue #21 item 4)", "",
              (f"SE+SE order 2, h = {h}, native, 2 OpenMP threads; ns per requested particle-step (best of "

@@ -166,3 +166,14 @@ def test_bench_native_sections_smoke(tmp_path, monkeypatch):
     labels = _row_labels(text)
     assert any("tokamak" in lab for lab in labels) and any("ABC" in lab for lab in labels)
     assert "section / trace" in text and "JAX section" in text
+
+
+@pytest.mark.slow  # compiles two wall kernels and their JAX references (~30 s)
+@pytest.mark.skipif(not _NATIVE_OK, reason=f"native backend unavailable: {_NATIVE_WHY}")
+def test_bench_native_walls_smoke(tmp_path):
+    text = _smoke("bench_native_walls", tmp_path)
+    rows = [[c.strip() for c in r.split("|")[1:5]] for r in text.splitlines() if r.startswith("| ") and "---" not in r][1:]
+    assert [(f, w) for f, w, _, _ in rows] == [(f, w) for f in ("tokamak (u, φ, Z)", "tokamak Cartesian")
+                                              for w in ("box, no hit", "128-gon, cuts")]
+    assert all(int(hits) == 0 for _, w, _, hits in rows if w == "box, no hit")
+    assert all(int(hits) > 0 for _, w, _, hits in rows if w == "128-gon, cuts")
