@@ -160,6 +160,13 @@ def _put(xs: np.ndarray, j: int, x: np.ndarray) -> None:
     xs.view(_ROW)[:, j, 0] = x.view(_ROW)[:, 0]
 
 
+def _failed_steps(status: np.ndarray, n: np.ndarray) -> np.ndarray:
+    """The failed step of each particle (its step count n where it failed, −1 elsewhere), written
+    over ``n`` (the runner's scratch, not used afterwards): no new (N,) array."""
+    np.putmask(n, status == RESULTS.successful, -1)
+    return n
+
+
 def run_points(method, pts, h, steps, progress_cb=None, engine="auto", save=None, how=None):
     """Advance points (N, 3) natively and return (xs (N, S, 3), status, failed_step, recovered).
 
@@ -182,8 +189,7 @@ def run_points(method, pts, h, steps, progress_cb=None, engine="auto", save=None
             _put(xs, int(slot[j]), x)
         if progress_cb is not None:
             progress_cb(N * int(steps[j] - steps[j - 1]))
-    failed = np.where(status != RESULTS.successful, n, -1)
-    return xs, status, failed, recovered
+    return xs, status, _failed_steps(status, n), recovered
 
 
 def run_saving(method, pts, h, n_steps, save_every, progress_cb=None, engine="auto", how=None, calls=CALLS):
@@ -206,8 +212,7 @@ def run_saving(method, pts, h, n_steps, save_every, progress_cb=None, engine="au
         if progress_cb is not None:
             progress_cb(N * int(end - done))
         done = int(end)
-    failed = np.where(status != RESULTS.successful, n, -1)
-    return xs, status, failed, recovered
+    return xs, status, _failed_steps(status, n), recovered
 
 
 def integrate_native(method, pts, single, h, n_steps, save_every, t0, progress, reason):
@@ -226,8 +231,11 @@ def integrate_native(method, pts, single, h, n_steps, save_every, t0, progress, 
                                                        calls=calls)
         else:
             # without saving, intermediate targets only for the progress bar (≤ calls), not saved
-            targets = np.unique(np.linspace(0, n_steps, min(n_steps, calls) + 1).astype(np.int64))
-            keep = np.isin(targets, steps)
+            if calls == 1:
+                targets, keep = steps, None  # = the saved steps, 0 and n_steps: all kept
+            else:
+                targets = np.unique(np.linspace(0, n_steps, min(n_steps, calls) + 1).astype(np.int64))
+                keep = np.isin(targets, steps)
             xs, status, failed, recovered = run_points(method, pts, h, targets, bar.update, save=keep, how=how)
     finally:
         bar.close()
