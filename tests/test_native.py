@@ -469,3 +469,55 @@ def test_dl_lanes_the_vectorised_pass_leaves_undecided_are_redone_exactly(fields
     b = vp.integrate(m, x0, 0.05, 100, save_every=50, backend="jax")
     assert np.all(b.status == 0)
     _agree(a, b)
+
+
+# ---- the front door's caches (issue #19) --------------------------------------------------------
+def test_backend_choice_is_remembered_per_method_object_and_dropped_with_it():
+    """select_backend plans a method once: the entry answers only for that very object (an id
+    reused by a later method is planned afresh) and goes when the method is collected."""
+    import gc
+
+    from vpforms.backends import _reasons
+
+    f = P.get("abc").field
+    m = vp.scheme(f, "DL+DL", fast=False)
+    key = id(m)
+    assert select_backend(m, "auto")[0] == "jax" and key in _reasons
+    assert select_backend(m, "auto")[0] == "jax"  # from the cache: the same answer
+    with pytest.raises(NativeUnavailableError, match="engine form"):
+        select_backend(m, "native")
+    del m
+    gc.collect()
+    assert key not in _reasons
+    _reasons[key] = (lambda: None, "stale")  # an id reused: the stale entry is not this method's
+    try:
+        m2 = vp.scheme(f, "SE+SE")
+        if id(m2) == key:
+            assert select_backend(m2, "auto")[0] == "native"
+        assert select_backend(m2, "auto")[0] == "native"
+    finally:
+        _reasons.pop(key, None)
+
+
+def test_saved_rows_are_copied_bit_for_bit():
+    from vpforms.backends.native.runner import _put
+
+    x = np.random.default_rng(3).normal(size=(7, 3))
+    x[2, 1], x[4, 0] = np.nan, -np.inf
+    xs = np.zeros((7, 3, 3))
+    _put(xs, 1, x)
+    assert xs[:, 1].tobytes() == x.tobytes() and not xs[:, 0].any() and not xs[:, 2].any()
+    _put(np.empty((0, 2, 3)), 0, np.empty((0, 3)))
+
+
+def test_potential_checks_are_lambdified_once():
+    from vpforms import _potentials as pot
+
+    f = P.get("abc").field
+    m = vp.scheme(f, "SE+SE")
+    x0 = np.random.default_rng(0).uniform(0, 6, size=(64, 3))
+    m.check_domain(x0)
+    before = pot._numpy_fn_cached.cache_info()
+    m.check_domain(x0)
+    after = pot._numpy_fn_cached.cache_info()
+    assert after.misses == before.misses and after.hits > before.hits

@@ -45,7 +45,10 @@ def _check_run(method: Any, x0: Any, h: Any, n_steps: Any, t0: Any = 0.0) -> tup
     x0 = np.asarray(x0, dtype=np.float64)
     if x0.ndim not in (1, 2) or x0.shape[-1] != 3:
         raise ValueError(f"x0 must have shape (3,) or (N, 3); got {x0.shape}")
-    if not np.all(np.isfinite(x0)):
+    # a finite sum needs finite terms (one pass, no temporary); an overflowing one is checked term by term
+    with np.errstate(all="ignore"):
+        total = float(np.sum(x0))
+    if not (math.isfinite(total) or np.all(np.isfinite(x0))):
         raise ValueError("x0 contains NaN or infinite values")
     if isinstance(n_steps, bool) or int(n_steps) != n_steps:
         raise ValueError(f"n_steps must be an integer, got {n_steps!r}")

@@ -11,6 +11,7 @@ gives both by one gauge integral, A − ∇χ with χ = ∫ A_k dx_k (k = 2 for 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from functools import lru_cache
 from typing import Any
 
 import jax.numpy as jnp
@@ -282,8 +283,32 @@ _NAMES = {"se": ("F1", "F3"), "dl": ("G1", "G2")}
 
 def _singular_sets(expr: sp.Expr, symbols: Sequence[sp.Symbol]) -> list[tuple[sp.Expr, str]]:
     """(g, kind) with g = 0 where ``expr`` may be singular: denominators, logarithm arguments,
-    radicands, and cos/sin under tan/sec, cot/csc; polynomial g split into irreducible factors."""
+    radicands, and cos/sin under tan/sec, cot/csc; polynomial g split into irreducible factors.
+
+    Remembered per (expression, symbols) (:func:`vpforms.integrate` checks the potentials at every
+    run's initial conditions) unless a factorisation failed or ran out of time: only a result that
+    does not depend on the clock is kept."""
+    key = (expr, tuple(symbols))
+    hit = _SINGULAR_SETS.get(key)
+    if hit is not None:
+        return list(hit)
+    out, complete = _find_singular_sets(expr, symbols)
+    if complete:
+        if len(_SINGULAR_SETS) >= 256:
+            _SINGULAR_SETS.clear()
+        _SINGULAR_SETS[key] = tuple(out)
+    return out
+
+
+#: (expression, symbols) → its singular sets (:func:`_singular_sets`), keyed by SymPy's structural
+#: equality (a Float's precision and a symbol's assumptions count)
+_SINGULAR_SETS: dict[tuple, tuple] = {}
+
+
+def _find_singular_sets(expr: sp.Expr, symbols: Sequence[sp.Symbol]) -> tuple[list[tuple[sp.Expr, str]], bool]:
+    """:func:`_singular_sets` and whether every factorisation it tried finished."""
     syms = set(symbols)
+    complete = True
     raw: list[tuple[sp.Expr, str]] = []
     for p in expr.atoms(sp.Pow):
         b, e = p.as_base_exp()
@@ -302,15 +327,23 @@ def _singular_sets(expr: sp.Expr, symbols: Sequence[sp.Symbol]) -> list[tuple[sp
         if g.is_polynomial(*symbols) and sp.count_ops(g) <= MAX_SIMPLIFY_OPS:  # within budget
             try:
                 facs = time_limited(SIMPLIFY_SECONDS, sp.factor_list, g, *symbols)[1] or facs
-            except Exception:  # noqa: BLE001, S110 - factoring is only a refinement (or over time)
-                pass
+            except Exception:  # noqa: BLE001 - factoring is only a refinement (or over time)
+                complete = False
         for f, _ in facs:
             if f.free_symbols & syms and (f, kind) not in out:
                 out.append((f, kind))
-    return out
+    return out, complete
 
 
 def _numpy_fn(expr, symbols):
+    """``expr`` as a NumPy function of points (N, 3); lambdified once per (expression, symbols)
+    (:func:`vpforms.integrate` checks the potentials at every run's initial conditions)."""
+    return _numpy_fn_cached(sp.sympify(expr), tuple(symbols))
+
+
+@lru_cache(maxsize=256)
+def _numpy_fn_cached(expr, symbols):
+    # keyed by SymPy's structural equality (a Float's precision and a symbol's assumptions count)
     f = _lambdify_numpy(symbols, expr)
 
     def g(pts):

@@ -7,6 +7,7 @@ be generated (symbolic or spline field, supported class) and a C compiler is pre
 
 from __future__ import annotations
 
+import weakref
 from typing import Any
 
 from .._errors import VPFormsError
@@ -30,9 +31,33 @@ def select_backend(method: Any, backend: str = "auto") -> tuple[str, str]:
     ok, why = available()
     reason = None if ok else why
     if reason is None:
-        reason = unsupported_reason(method)
+        reason = _unsupported(method)
     if reason is None:
         return "native", "requested" if backend == "native" else "auto: native available"
     if backend == "native":
         raise NativeUnavailableError(f"native backend cannot run {getattr(method, 'name', method)!s}: {reason}")
     return "jax", f"auto: native not used ({reason})"
+
+
+#: id(method) → (weak reference to the method, unsupported_reason(method)): the plan of a method
+#: (SymPy printing, ~ms) is fixed once it is built, so each method is planned once; an entry is
+#: used only while its reference still resolves to that very object (ids are reused), and dropped
+#: when the method is collected
+_reasons: dict[int, tuple[Any, str | None]] = {}
+
+
+def _unsupported(method: Any) -> str | None:
+    """:func:`unsupported_reason`, remembered per method object (not for objects without weak
+    references: those are planned on every call)."""
+    key = id(method)
+    hit = _reasons.get(key)
+    if hit is not None and hit[0]() is method:
+        return hit[1]
+    reason = unsupported_reason(method)
+    try:
+        ref = weakref.ref(method, lambda r, key=key: _reasons.pop(key) if _reasons.get(key, (None,))[0] is r
+                          else None)
+    except TypeError:
+        return reason
+    _reasons[key] = (ref, reason)
+    return reason
