@@ -86,7 +86,7 @@ class RESULTS:
         not_converged: "Newton iteration did not converge",
         nonfinite: "non-finite input or result (NaN/inf)",
         inconsistent: "inconsistent step: |X − x − h a(x)| > κ·|h a(x)| (the step does not follow the field)",
-        left_domain: "the field line left the field's domain (the grid of a gridded field)",
+        left_domain: "the field line left the domain (a wall, or the grid of a gridded field)",
     }
     #: short reason names for counts ("163 twist condition failed, 8 non-finite")
     short = {
