@@ -251,7 +251,7 @@ def main(argv=None) -> int:
         "## 1. Accuracy and cost (3 lines)",
         "",
         "| tool | settings | error vs coils' B (m) | error vs own field (m) | ms / transit / line | "
-        "compile / fixed cost per call (s) | field: max|B − B_coils| / max|B| |",
+        "compile / fixed cost per call (s) | field: max\\|B − B_coils\\| / max\\|B\\| |",
         "|---|---|---:|---:|---:|---:|---:|",
     ]
     for name, lab, e1, e2, ms, comp, fd in rows:

@@ -23,7 +23,7 @@ def _smoke(script: str, tmp_path: pathlib.Path) -> str:
     spec = importlib.util.spec_from_file_location(script, path)
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
-    out = tmp_path / f"results_{script}.md"
+    out = tmp_path / f"results_{script.replace('/', '_')}.md"
     assert mod.main(["--smoke", "--out", str(out)]) == 0
     text = out.read_text()
     assert "smoke mode" in text
@@ -177,3 +177,13 @@ def test_bench_native_walls_smoke(tmp_path):
                                               for w in ("box, no hit", "128-gon, cuts")]
     assert all(int(hits) == 0 for _, w, _, hits in rows if w == "box, no hit")
     assert all(int(hits) > 0 for _, w, _, hits in rows if w == "128-gon, cuts")
+
+
+@pytest.mark.slow  # builds the coil spline, compiles one native spline kernel (~40 s), a short DOP853 reference
+@pytest.mark.skipif(not _NATIVE_OK, reason=f"native backend unavailable: {_NATIVE_WHY}")
+def test_peers_vpforms_issue_size_smoke(tmp_path):
+    text = _smoke("peers/vpforms_issue_size", tmp_path)
+    rows = [r for r in text.splitlines() if r.startswith("| SE+SE")]
+    assert len(rows) == 1 and "10 × 20" in rows[0]
+    err = float(rows[0].split("|")[3])
+    assert 0 < err < 0.05  # order 2 at h = 0.05 after 2 transits: ~1e-3 m
