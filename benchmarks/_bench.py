@@ -61,6 +61,13 @@ def jax_cell(fn: Callable[[], Any], per: int, native_s: float) -> tuple[str, Any
     return f"{t * 1e9 / per:.0f} ({t / native_s:.1f}× native)", ref
 
 
+def results_tail(script: str, seconds: float, smoke: bool) -> list[str]:
+    """The closing lines of a results file: the load average at the end, then :func:`machine`."""
+    load = os.getloadavg()
+    return [f"Load average (1, 5, 15 min) at the end: {load[0]:.1f}, {load[1]:.1f}, {load[2]:.1f}.", "",
+            machine(script, seconds, smoke), ""]
+
+
 def machine(script: str, seconds: float, smoke: bool) -> str:
     """One line: the machine, the JAX and vpforms versions, the command and how long it ran."""
     import jax

@@ -23,7 +23,7 @@ import sys
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # benchmarks/_bench.py
-from _bench import interleaved, jax_cell, machine, native_missing, parser, write_results
+from _bench import interleaved, jax_cell, native_missing, parser, results_tail, write_results
 
 import vpforms
 from vpforms import problems
@@ -73,7 +73,6 @@ def main(argv=None) -> int:
         rows.append(f"| {label} | {N:,} × {n} | {M:,} | {times['trace'] * 1e9 / (N * n):.1f} | "
                     f"{times['native'] * 1e9 / (N * n):.1f} | **{times['native'] / times['trace']:.2f}×** | "
                     f"{cell} |")
-    load = os.getloadavg()
     lines = ["# What a Poincaré section costs on the native backend (issue #21 item 1)", "",
              (f"SE+SE order 2, native, 2 OpenMP threads; ns per particle-step (best of {rounds} interleaved "
               "rounds): the plain native trace (no saves), the native section of the same particle-steps "
@@ -82,8 +81,7 @@ def main(argv=None) -> int:
               "sections are the same crossings (asserted: same count)."), "",
              "| problem | lines × steps | crossings | trace ns | section ns | section / trace | JAX section ns |",
              "|---|---|---:|---:|---:|---:|---:|", *rows, "",
-             f"Load average (1, 5, 15 min) at the end: {load[0]:.1f}, {load[1]:.1f}, {load[2]:.1f}.", "",
-             machine("bench_native_sections.py", time.perf_counter() - t0, args.smoke), ""]
+             *results_tail("bench_native_sections.py", time.perf_counter() - t0, args.smoke)]
     return write_results(args.out, "\n".join(lines))
 
 

@@ -25,7 +25,7 @@ import sys
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # benchmarks/_bench.py
-from _bench import interleaved, jax_cell, machine, native_missing, parser, write_results
+from _bench import interleaved, jax_cell, native_missing, parser, results_tail, write_results
 
 import numpy as np
 
@@ -82,7 +82,6 @@ def main(argv=None) -> int:
                 rows.append(f"| {flabel} | {wlabel} | {N:,} × {n} | {hits.n_hit:,} | "
                             f"{times['trace'] * 1e9 / ps:.1f} | {times['native'] * 1e9 / ps:.1f} | "
                             f"**{times['native'] / times['trace']:.2f}×** | {cell} |")
-    load = os.getloadavg()
     lines = ["# What a wall costs on the native backend (issue #21 item 4)", "",
              (f"SE+SE order 2, h = {h}, native, 2 OpenMP threads; ns per requested particle-step (best of "
               f"{rounds} interleaved rounds): the plain native trace (no saves, no wall), the native wall trace "
@@ -93,8 +92,7 @@ def main(argv=None) -> int:
               "128-gon the lines that hit stop early."), "",
              "| field | wall | lines × steps | hits | trace ns | wall ns | wall / trace | JAX wall ns |",
              "|---|---|---|---:|---:|---:|---:|---:|", *rows, "",
-             f"Load average (1, 5, 15 min) at the end: {load[0]:.1f}, {load[1]:.1f}, {load[2]:.1f}.", "",
-             machine("bench_native_walls.py", time.perf_counter() - t0, args.smoke), ""]
+             *results_tail("bench_native_walls.py", time.perf_counter() - t0, args.smoke)]
     return write_results(args.out, "\n".join(lines))
 
 
