@@ -23,6 +23,12 @@ def load_problem(argv=None) -> tuple[dict, str]:
         return json.load(fh), work
 
 
+def accuracy_transits(P: dict, tool: str) -> int:
+    """The transits of ``tool``'s accuracy run: ``accuracy_transits``, unless the driver asked this
+    tool for fewer (``accuracy_transits_by_tool``: a peer too slow for the full size)."""
+    return int(P.get("accuracy_transits_by_tool", {}).get(tool, P["accuracy_transits"]))
+
+
 def write_result(work: str, tool: str, result: dict) -> None:
     def conv(o):
         if isinstance(o, np.ndarray):

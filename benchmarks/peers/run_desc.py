@@ -18,7 +18,7 @@ import time
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from _peer_common import load_problem, timed, write_result  # noqa: E402
+from _peer_common import accuracy_transits, load_problem, timed, write_result  # noqa: E402
 
 
 def main() -> int:
@@ -49,7 +49,7 @@ def main() -> int:
         r, z = field_line_integrate(r0, z0, phis, cs, source_grid=grids, rtol=tol, atol=tol)
         return np.asarray(r)[1:], np.asarray(z)[1:]
 
-    n_short, n_acc = P["short_transits"], P["accuracy_transits"]
+    n_short, n_acc = P["short_transits"], accuracy_transits(P, "desc")
     t_short, _ = timed(lambda: trace(R0, Z0, n_short))
     t_acc, (R, Z) = timed(lambda: trace(R0, Z0, n_acc))
     print("desc accuracy", t_short, t_acc, flush=True)

@@ -21,7 +21,7 @@ import time
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from _peer_common import dop853_section, load_problem, read_makegrid, timed, write_result  # noqa: E402
+from _peer_common import accuracy_transits, dop853_section, load_problem, read_makegrid, timed, write_result  # noqa: E402
 
 os.environ.setdefault("ESSOS_PROGRESS", "0")
 SAVES_PER_TRANSIT = 200
@@ -96,7 +96,7 @@ def main() -> int:
         n = min(len(r) for r, _ in out)
         return np.stack([r[:n] for r, _ in out], 1), np.stack([z[:n] for _, z in out], 1)
 
-    n_short, n_acc = P["short_transits"], P["accuracy_transits"]
+    n_short, n_acc = P["short_transits"], accuracy_transits(P, "essos")
     t_short, _ = timed(lambda: trace(R0, Z0, n_short))
     t_acc, (ts, Y) = timed(lambda: trace(R0, Z0, n_acc))
     R, Z = sections(ts, Y, n_acc)
@@ -106,8 +106,8 @@ def main() -> int:
     t_long, (ts, Y) = timed(lambda: trace(R0[line:line + 1], Z0[line:line + 1], L))
     RL, ZL = sections(ts, Y, L)
     print("essos long", t_long, RL.shape, flush=True)
-    t_ref, (Rr, Zr) = timed(lambda: dop853_section(lambda x: np.asarray(Bv(jnp.asarray(x))), R0, Z0, nfp,
-                                                   n_acc * nfp))
+    t_ref, (Rr, Zr) = (0.0, (None, None)) if not P.get("own_reference", True) else timed(
+        lambda: dop853_section(lambda x: np.asarray(Bv(jnp.asarray(x))), R0, Z0, nfp, n_acc * nfp))
     write_result(work, "essos", {
         "tool": "ESSOS", "version": version("essos"), "jax": jax.__version__,
         "pipeline": "MAKEGRID polylines → Fourier curves (order 1 TF, 7 helical; 240 quadrature points) → "
