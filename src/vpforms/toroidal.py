@@ -32,6 +32,7 @@ import numpy as np
 
 from . import _config  # noqa: F401  (float64)
 from ._vecpot import VectorPotential
+from .coils import CoilPotential, CoilSet
 from .fields import Field
 
 __all__ = [
@@ -98,13 +99,17 @@ class ToroidalPotential(VectorPotential):
     """The covariant (u, φ, Z) components of a Cartesian vector potential A(x) (∇×A = B in R³).
 
     ``A_cartesian`` maps a point of shape (3,) to A of shape (3,) (JAX-traceable: coils, formulas);
-    ``nfp`` the number of field periods (A's components are 2π/nfp-periodic in φ — a property of the
+    a coil set's ``CoilSet.A`` is taken as its :class:`~vpforms.coils.CoilPotential`, which the
+    native backend evaluates (so is a :class:`~vpforms.coils.CoilPotential` itself); ``nfp`` the number of field periods (A's components are 2π/nfp-periodic in φ — a property of the
     source, not checked here). A_u = A·∂x/∂u = A·e_R/R, A_φ = A·∂x/∂φ = R A·e_φ, A_Z = A·e_z.
     """
 
     def __init__(self, A_cartesian: Callable[[Any], Any], nfp: int = 1, description: str = ""):
         if not callable(A_cartesian):
             raise TypeError("A_cartesian must be a callable A(x) of a point of shape (3,)")
+        owner = getattr(A_cartesian, "__self__", None)
+        if isinstance(owner, CoilSet) and getattr(A_cartesian, "__func__", None) is CoilSet.A:
+            A_cartesian = CoilPotential(owner)  # the same A, known to the native backend
         if isinstance(nfp, bool) or int(nfp) != nfp or int(nfp) < 1:
             raise ValueError(f"nfp must be a positive integer; got {nfp!r}")
         self.A_cartesian = A_cartesian
@@ -137,15 +142,23 @@ class ToroidalPotential(VectorPotential):
         return tuple(comp(i) for i in range(3))
 
 
-def toroidal_field(A_cartesian: Callable[[Any], Any] | VectorPotential, box: Any, *, nfp: int = 1,
-                   name: str = "toroidal field", **kw: Any) -> Field:
+def toroidal_field(A_cartesian: Callable[[Any], Any] | VectorPotential | CoilSet, box: Any, *,
+                   nfp: int | None = None, name: str = "toroidal field", **kw: Any) -> Field:
     """The field-line flow of B = ∇×A in (u, φ, Z) (module docstring) as a :class:`~vpforms.Field`.
 
-    ``A_cartesian`` is a Cartesian A(x) (wrapped in :class:`ToroidalPotential`) or a
-    :class:`~vpforms._vecpot.VectorPotential` already in (u, φ, Z) (a spline on a grid); ``box``
-    is in (u, φ, Z) (see :func:`box_from_cylindrical`). Further keywords go to
+    ``A_cartesian`` is a Cartesian A(x) (wrapped in :class:`ToroidalPotential`; a
+    :class:`~vpforms.coils.CoilPotential` too), a :class:`~vpforms.coils.CoilSet` (its coils traced
+    directly, ``nfp`` by default the set's) or a :class:`~vpforms._vecpot.VectorPotential` already
+    in (u, φ, Z) (a spline on a grid); ``nfp`` defaults to 1 otherwise; ``box`` is in (u, φ, Z)
+    (see :func:`box_from_cylindrical`). Further keywords go to
     :meth:`vpforms.Field.from_vector_potential`."""
-    A = A_cartesian if isinstance(A_cartesian, VectorPotential) else ToroidalPotential(A_cartesian, nfp)
+    if isinstance(A_cartesian, CoilSet):
+        A_cartesian, nfp = CoilPotential(A_cartesian), A_cartesian.nfp if nfp is None else nfp
+    nfp = 1 if nfp is None else nfp
+    if isinstance(A_cartesian, VectorPotential) and not isinstance(A_cartesian, CoilPotential):
+        A = A_cartesian
+    else:
+        A = ToroidalPotential(A_cartesian, nfp)
     field = Field.from_vector_potential(A, box=box, name=name, **kw)
     field.coordinates = "toroidal (u = R²/2, φ, Z)"
     return field

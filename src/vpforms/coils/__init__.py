@@ -17,12 +17,14 @@ differentiable: ∇×A = B and ∇·B = 0 hold to rounding for closed coils.
 * :func:`read_makegrid`, :func:`write_makegrid`, :class:`CoilFileError` — MAKEGRID ``coils.*`` files;
 * :func:`circular_tokamak`, :func:`l2_stellarator` — two coil sets with closed flux surfaces.
 
-``CoilSet.A`` is a Cartesian vector potential of a point (3,), so
-``vpforms.toroidal.toroidal_field(coilset.A, box, nfp=coilset.nfp)`` integrates the field lines of a
-coil set with the volume-preserving methods.
+``CoilSet.A`` is a Cartesian vector potential of a point (3,), and :class:`CoilPotential` the same
+as a vector-potential object, so ``vpforms.toroidal.toroidal_field(coilset, box)`` (in
+(u = R²/2, φ, Z)) and ``Field.from_vector_potential(coilset.potential(), box)`` (Cartesian)
+integrate the field lines of a coil set directly with the volume-preserving methods — natively
+(generated C, the segments passed at run time) where a C compiler exists.
 """
 
-from ._coilset import Coil, CoilSet
+from ._coilset import Coil, CoilPotential, CoilSet
 from ._segments import MU0
 from .library import circular_tokamak, l2_stellarator
 from .makegrid import CoilFileError, read_makegrid, write_makegrid
@@ -31,6 +33,7 @@ __all__ = [
     "MU0",
     "Coil",
     "CoilFileError",
+    "CoilPotential",
     "CoilSet",
     "circular_tokamak",
     "l2_stellarator",

@@ -25,9 +25,10 @@ import jax.numpy as jnp
 import numpy as np
 
 from .. import _config  # noqa: F401  (float64)
+from .._vecpot import VectorPotential
 from ._segments import segments_A, segments_B
 
-__all__ = ["Coil", "CoilSet"]
+__all__ = ["Coil", "CoilPotential", "CoilSet"]
 
 
 def _finite_scalar(value: Any, what: str) -> float:
@@ -204,6 +205,12 @@ class CoilSet:
         """A (T·m, ∇×A = B) at x (m) of shape (3,) or (N, 3), the same shape."""
         return segments_A(_points(x), *self._segments)
 
+    def potential(self) -> CoilPotential:
+        """A as a :class:`CoilPotential` (Cartesian): ``Field.from_vector_potential(coils.potential(),
+        box)`` traces the coils directly; :func:`vpforms.toroidal.toroidal_field` (coils, box) in
+        (u = R²/2, φ, Z)."""
+        return CoilPotential(self)
+
     def __len__(self) -> int:
         return len(self.coils)
 
@@ -216,6 +223,43 @@ class CoilSet:
     def __repr__(self) -> str:
         n_seg = int(self._segments[0].shape[0])
         return f"CoilSet({len(self.coils)} coils, {n_seg} segments, nfp={self.nfp}, stellsym={self.stellsym})"
+
+
+class CoilPotential(VectorPotential):
+    """The Cartesian vector potential A(x) of a :class:`CoilSet` (Hanson–Hirshman segments, ∇×A = B),
+    as a :class:`~vpforms._vecpot.VectorPotential`: the field of
+    ``Field.from_vector_potential(CoilPotential(coils), box)`` is B itself, traced directly
+    (Biot–Savart, no grid), its pairs by the Gauss–Legendre gauge integral of A. The native backend
+    evaluates the segments in generated C with the coils passed at run time
+    (:mod:`vpforms.backends.native.codegen.coils`); so does it in toroidal coordinates, where
+    :class:`vpforms.toroidal.ToroidalPotential` wraps this potential."""
+
+    def __init__(self, coils: CoilSet):
+        if not isinstance(coils, CoilSet):
+            raise TypeError(f"CoilPotential needs a CoilSet; got {type(coils).__name__}")
+        self.coils = coils
+        self.periods = (None, None, None)
+        n_seg = int(coils.segments()[0].shape[0])
+        self.description = f"Biot–Savart vector potential of {len(coils)} coils ({n_seg} segments)"
+
+    def __call__(self, x: Any) -> jax.Array:
+        """A (T·m) at x of shape (3,) or (N, 3), one pass over the segments."""
+        return self.coils.A(x)
+
+    def components(self):
+        segs = self.coils.segments()
+
+        def comp(i):
+            def Ai(x1, x2, x3):
+                x = jnp.stack(jnp.broadcast_arrays(*(jnp.asarray(v, float) for v in (x1, x2, x3))), axis=-1)
+                if x.ndim == 1:
+                    return segments_A(x, *segs)[i]
+                return segments_A(x.reshape(-1, 3), *segs)[:, i].reshape(x.shape[:-1])
+
+            Ai.__name__ = ("A_x", "A_y", "A_z")[i]
+            return Ai
+
+        return tuple(comp(i) for i in range(3))
 
 
 def _points(x: Any) -> Any:

@@ -6,9 +6,10 @@
 * :mod:`.plan` — one step of a method as a list of stages ``(stage, coefficient of h)``:
   relabelling (prop:trivperm) relabels a stage's case, adjunction (prop:switchperm) inverts the
   stages at −h in reverse order, compositions concatenate them;
-* :mod:`.splines` — spline vector potentials (:mod:`vpforms.grids`) as SymPy atoms of spline
-  evaluations, their C, and the run-time data array they read (a new grid of the same structure
-  reuses the compiled kernel);
+* :mod:`.vecpot` — fields of a vector potential of data: :mod:`.splines` (splines of A,
+  :mod:`vpforms.grids`) and :mod:`.coils` (filament coils, :mod:`vpforms.coils`) as SymPy atoms of
+  their evaluations, and their C; the run-time data array they read (:mod:`.data`: a new grid or
+  coil set of the same structure reuses the compiled kernel);
 * :mod:`.emit` — C from the stages: the generic map's two scalar Newton solves per lane (closed
   form where the equation is affine in its unknown), RK4, and the block/SIMD/OpenMP kernel.
 """

@@ -1,8 +1,9 @@
 """C statements from SymPy expressions, shared by the emitters of :mod:`.emit`.
 
 :func:`_assign` prints ``double t = e;`` with common-subexpression elimination, after turning the
-Gauss–Legendre sums of quadrature potentials into loops over the nodes (:func:`_gl_loops`) and the
-spline atoms of spline potentials into their evaluations (:func:`.splines.spline_calls`).
+Gauss–Legendre sums of quadrature potentials into loops over the nodes (:func:`_gl_loops`), the
+spline atoms of spline potentials and the coil atoms of coil potentials into their evaluations
+(:func:`.splines.spline_calls`, :func:`.coils.coil_calls`) and data scalars into reads of ``fd``.
 """
 
 from __future__ import annotations
@@ -12,7 +13,7 @@ from typing import Any
 import sympy as sp
 
 from ...._quadrature import GL_T, GLSum, _nodes_weights
-from . import splines
+from . import coils, data, splines
 from .cprinter import printer as _printer
 
 __all__ = ["_C", "_assign", "_gl_loops", "_gl_table"]
@@ -28,6 +29,9 @@ def _assign(targets: list[str], exprs: list[Any], subs: dict, tag: str) -> list[
     lines, exprs = _gl_loops(exprs, tag)
     more, exprs = splines.spline_calls(exprs, tag, _printer)  # spline atoms: data read at run time
     lines += more
+    more, exprs = coils.coil_calls(exprs, tag, _printer)  # coil atoms: one loop over the segments
+    lines += more
+    exprs = data.read_scalars(exprs)
     syms = sp.numbered_symbols(f"{tag}_")
     reps, red = sp.cse(exprs, symbols=syms)
     lines += [f"double {s} = {_printer.doprint(e)};" for s, e in reps]
@@ -57,7 +61,7 @@ def _gl_loops(exprs: list[Any], tag: str) -> tuple[list[str], list[Any]]:
     for n in sorted({q.n for q in sums}):
         group = [q for q in sums if q.n == n]
         t = sp.Symbol(f"{tag}_t{n}")
-        with splines.scope():  # the loop's body is a C block
+        with data.scope():  # the loop's body is a C block
             body = _assign([f"{tag}_gf{n}_{k}" for k in range(len(group))],
                            [q.integrand.xreplace({GL_T: t}) for q in group], {}, f"{tag}_g{n}")
         # Σᵢ wᵢ f(tᵢ) in node order, as jnp.dot(w, f(t)) in vpforms._quadrature.line_integral

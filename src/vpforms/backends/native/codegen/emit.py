@@ -40,7 +40,7 @@ from ...._guard import FLOOR as GUARD_FLOOR
 from ...._methods._base import Method
 from ...._solution import describe
 from ....symbolic import _symbols as G
-from . import splines
+from . import coils, data, splines
 from .assign import _C, _assign, _gl_table
 from .cprinter import printer as _printer
 from .lanes import lane_code
@@ -151,8 +151,8 @@ def _solve_c(var: str, g: sp.Expr, subs: dict, guess: str, opts: tuple, tag: str
     if newton or z in dg.free_symbols:
         emit = _newton_fixed_c if fixed else _newton_c
         # spline axes whose argument does not move with z: evaluated once, before the iterations
-        pre = splines.hoist([g, dg], z, _printer)
-        with splines.scope():  # the iteration's body is a C block
+        pre = splines.hoist([g, dg], z, _printer) + coils.hoist([g, dg], z, _printer)
+        with data.scope():  # the iteration's body is a C block
             body = _assign([f"{tag}_g", f"{tag}_dg"], [g, dg], {}, f"{tag}c")
         return pre + emit(var, guess, body, opts, tag)
     # affine in z: the root Newton converges to, in closed form; the same twist test on g' = const
@@ -294,7 +294,7 @@ def _theta_c(st: ThetaStage, w: tuple[str, str, str], tag: str, newton: bool,
                           newton, fixed)
         lines += [f"double {tag}_q1 = {tag}_Q1;"] + ([f"double {tag}_okin = 1.0;"] if fixed else [])
     else:
-        with splines.scope():  # the outer iteration's body is a C block
+        with data.scope():  # the outer iteration's body is a C block
             body = [f"double {tag}_q1 = z;", *inner(f"{tag}i")]
             body += [f"{tag}_okin = {tag}_okin * {tag}i_ok;"] if fixed else []
             body += _assign([f"{tag}o_g", f"{tag}o_dg"], [gq, dgq], {}, f"{tag}oc")
@@ -315,7 +315,7 @@ def _dl_body(st: DLStage, newton: bool, fixed: bool) -> list[str]:
     lines = ["double w1 = x1, w2 = x2, w3 = x3;"]
     tags = [f"t{k}" for k in range(len(st.stages))]
     for ts, t in zip(st.stages, tags):
-        with splines.scope():  # a stage reassigns w: nothing evaluated at w before it is reused
+        with data.scope():  # a stage reassigns w: nothing evaluated at w before it is reused
             lines += _theta_c(ts, tuple(f"w{i + 1}" for i in ts.idx), t, newton, fixed)
     lines.append("X1 = w1; X2 = w2; X3 = w3;")
     if fixed:
@@ -412,8 +412,8 @@ def _guard_c(field: Any, kappa: float | None, fixed: bool) -> tuple[list[str], l
 
 
 def _data(ref) -> str:
-    """A data scalar (:class:`.splines.DataRef`) as C: its read of the data array."""
-    return _printer.doprint(splines.e_sub(ref))
+    """A data scalar (:class:`.data.DataRef`) as C: its read of the data array."""
+    return _printer.doprint(data.e_sub(ref))
 
 
 def _step_fn(name: str, calls: list[str], fixed: bool, guard=([], [])) -> str:
@@ -449,7 +449,7 @@ def kernel_source(method: Any, engine: str = "auto", entry: str = "run") -> str:
 
 def kernel_parts(method: Any, engine: str = "auto", entry: str = "run") -> tuple[str, Any]:
     """(the C source of ``vp_run`` — or, with ``entry="sections"``, of ``vp_sections``; with
-    ``entry="wall"``, of ``vp_wall`` (:mod:`.walls`) — for ``method``, its run-time data ``fd``: the flat array of :func:`.splines.field_data`, or None
+    ``entry="wall"``, of ``vp_wall`` (:mod:`.walls`) — for ``method``, its run-time data ``fd``: the flat array of :func:`.data.field_data`, or None
     for a field without data).
 
     ``engine="newton"`` iterates Newton on every solve, also where the equation is affine in its
@@ -463,9 +463,9 @@ def kernel_parts(method: Any, engine: str = "auto", entry: str = "run") -> tuple
         raise ValueError(f"engine must be 'auto' or 'newton', got {engine!r}")
     if entry not in ("run", "sections", "wall"):
         raise ValueError(f"entry must be 'run', 'sections' or 'wall', got {entry!r}")
-    with splines.collecting() as refs:
+    with data.collecting() as refs:
         source = _kernel(method, engine, entry)
-    return source, splines.field_data(refs)
+    return source, data.field_data(refs)
 
 
 def _wall_c(method: Any, lanes: dict[str, str]) -> str:
@@ -487,7 +487,7 @@ def _kernel(method: Any, engine: str, entry: str) -> str:
     kappa = getattr(method, "guard_kappa", None) if isinstance(method, Method) else None
     fns, steps = {}, {}
     for kind, fixed in (("exact", False), ("fast", True)):
-        if fixed and ("VP_GL_" in fns["exact"] or "vp_cell(" in fns["exact"] + steps["exact"]):
+        if fixed and any(s in fns["exact"] + steps["exact"] for s in ("VP_GL_", "vp_cell(", "vp_coils")):
             # quadrature potentials: gcc vectorises the loops over the nodes, not the lane loop
             # around them, so masked fixed iterations would only add work — every lane takes the
             # exact early-exit step (measured 1.4× faster than FIXED_ITERS = 5 on ∇×(sin x₂x₃, …));
@@ -497,35 +497,20 @@ def _kernel(method: Any, engine: str, entry: str) -> str:
         names: dict[str, str] = {}  # body → function name (stages with the same map share one)
         calls = []
         for stage, coef in stages:
-            with splines.scope(function=True):
+            with data.scope(function=True):
                 body = "\n".join(_stage_body(stage, engine == "newton", fixed))
             fn = names.setdefault(body, f"vp_{kind}{len(names)}")
             call = f"{fn}(y1, y2, y3, {coef!r} * h, &y1, &y2, &y3, fd);"
             calls.append(f"ok *= {call}" if fixed else f"c = {call} code = code ? code : c;")
         fns[kind] = "".join(_stage_fn(fn, body.split("\n"), fixed) for body, fn in names.items())
-        with splines.scope(function=True):
+        with data.scope(function=True):
             guard = _guard_c(field, kappa, fixed)
         steps[kind] = _step_fn(f"vp_step_{kind}", calls, fixed, guard)
     fns, steps = fns["fast"] + fns["exact"], steps["fast"] + steps["exact"]
     lanes = lane_code()
     # the Gauss–Legendre rules the quadrature potentials loop over (_gl_loops)
     tables = "".join(_gl_table(n) for n in sorted({int(k) for k in re.findall(r"VP_GL_T(\d+)\[", fns)}))
-    return f"""
-#include <math.h>
-#include <stdint.h>
-#include <float.h>
-#define B {BLOCK}
-/* finite test that survives -ffast-math: NaN fails every comparison */
-/* every stage inlined into the lane loop, however many (a call there blocks vectorisation) */
-#define _VP_INLINE __attribute__((always_inline))
-#define _VP_FINITE(a, b, c) ((fabs(a) <= DBL_MAX) & (fabs(b) <= DBL_MAX) & (fabs(c) <= DBL_MAX))
-{_SIMD_DECLS}
-{splines.C_HELPERS if "vp_cell(" in fns + steps else ""}
-{tables}
-{fns}
-/* one step of {describe(method)}: {len(stages)} stage(s), generated from SymPy */
-{steps}
-""" + (sections_entry(lanes) if entry == "sections" else _wall_c(method, lanes) if entry == "wall" else f"""/* Saves (save_every > 0): xs has shape (N, n_saves + 1, 3), slot 0 the initial state (not
+    tail = (sections_entry(lanes) if entry == "sections" else _wall_c(method, lanes) if entry == "wall" else f"""/* Saves (save_every > 0): xs has shape (N, n_saves + 1, 3), slot 0 the initial state (not
    written here), slot j the state after step j·save_every and slot n_saves after n_total (the last
    step, saved even off the stride). A live lane at a saved step writes its slot; a lane that stops
    (its status set, now or before this call) fills its later slots with its frozen state, as the
@@ -560,3 +545,22 @@ void vp_run(int64_t N, double *x, int32_t *status, int64_t *n, int64_t n_target,
 {lanes['store']}    }}
 }}
 """)
+    # helpers the stages and the entry call (the coils' segment loops, :mod:`.coils`)
+    helpers = "".join(code for _, code in data.emission().helpers.values())
+    return f"""
+#include <math.h>
+#include <stdint.h>
+#include <float.h>
+#define B {BLOCK}
+/* finite test that survives -ffast-math: NaN fails every comparison */
+/* every stage inlined into the lane loop, however many (a call there blocks vectorisation) */
+#define _VP_INLINE __attribute__((always_inline))
+#define _VP_FINITE(a, b, c) ((fabs(a) <= DBL_MAX) & (fabs(b) <= DBL_MAX) & (fabs(c) <= DBL_MAX))
+{_SIMD_DECLS}
+{splines.C_HELPERS if "vp_cell(" in fns + steps else ""}
+{tables}
+{helpers}
+{fns}
+/* one step of {describe(method)}: {len(stages)} stage(s), generated from SymPy */
+{steps}
+""" + tail

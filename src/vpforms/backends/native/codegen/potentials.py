@@ -39,7 +39,8 @@ from ...._quadrature import line_integral_expr
 from ....symbolic import _symbols as G
 from ....symbolic.recipes import flip_generic
 from .cprinter import c_unsupported
-from .splines import DataRef, spline_field_exprs, spline_pair, spline_reason
+from .data import DataRef
+from .vecpot import vecpot_field_exprs, vecpot_pair, vecpot_reason
 
 __all__ = ["CORR_S", "DL_QPC", "CorrectionStage", "DLStage", "MapStage", "RK4Stage", "ThetaStage",
            "class_stage", "field_exprs", "field_reason", "potential_pair", "symbolic_reason"]
@@ -155,21 +156,21 @@ def symbolic_reason(field: Any) -> str | None:
 
 def field_reason(field: Any) -> str | None:
     """None if native can evaluate ``field``: SymPy expressions C can print, or a spline vector
-    potential (:mod:`.splines`); else why not."""
+    potential or coils (:mod:`.vecpot`); else why not."""
     if getattr(field, "exprs", None) is not None:
         return symbolic_reason(field)
-    return spline_reason(field)
+    return vecpot_reason(field)
 
 
 def field_exprs(field: Any) -> tuple:
-    """a(x) in G.x: the field's expressions, or the curl of its spline vector potential."""
+    """a(x) in G.x: the field's expressions, or the curl of its vector potential of data."""
     if getattr(field, "exprs", None) is None:
-        return spline_field_exprs(field)
+        return vecpot_field_exprs(field)
     return _to_x(field, field.exprs)
 
 
 def _free(expr: Any) -> set:
-    """The free symbols of ``expr`` but the run-time data (:class:`.splines.DataRef`)."""
+    """The free symbols of ``expr`` but the run-time data (:class:`.data.DataRef`)."""
     return {s for s in sp.sympify(expr).free_symbols if not isinstance(s, DataRef)}
 
 
@@ -183,8 +184,8 @@ def potential_pair(field: Any, splitting: str) -> tuple[sp.Expr, sp.Expr] | str:
       as :class:`~vpforms._quadrature.GLSum` (:func:`~vpforms._quadrature.line_integral_expr`),
       whose derivatives are the derivatives ``jax.grad`` takes of the JAX quadrature;
     * anything else (a gauge integral of supplied vector potentials by quadrature): the reason."""
-    if getattr(field, "exprs", None) is None and spline_reason(field) is None:
-        return spline_pair(field, splitting)  # the exact gauge of a spline of A, as atoms
+    if getattr(field, "exprs", None) is None and vecpot_reason(field) is None:
+        return vecpot_pair(field, splitting)  # the gauge of a spline of A or of coils, as atoms
     _, exprs, how = field._get(splitting)
     if exprs is not None:
         pair = _to_x(field, exprs)

@@ -1,24 +1,23 @@
-"""Spline fields in the native backend: SymPy atoms for spline evaluations, their C, run-time data.
+"""Spline fields in the native backend: SymPy atoms for spline evaluations, their C, their data.
 
 A field given by a spline vector potential (:class:`vpforms.grids.SplinePotential`, relabelled
 or summed, :mod:`vpforms._vecpot`) has potentials that are spline evaluations, not formulas. They
-enter the generated code as SymPy atoms, so the stage plan, the symbolic differentiation of the
-generating map and the Newton emission are those of every other field:
+enter the generated code as SymPy atoms (:mod:`.vecpot`), so the stage plan, the symbolic
+differentiation of the generating map and the Newton emission are those of every other field:
 
 * :class:`SplineAt` ``(ref, orders, degrees, x₁, x₂, x₃)`` is ∂^orders s(x₁, x₂, x₃) of the
-  tensor spline ``ref`` (a :class:`DataRef`); its derivative along an argument is the atom of one
-  order more (``fdiff``), 0 past the degree — the exact derivative of the cell polynomial that
-  ``jax.grad`` takes of :func:`vpforms.grids._bspline.evaluate`;
-* a :class:`DataRef` scalar (the base point c of an antiderivative, a grid bound) is a number the
-  kernel reads at run time.
+  tensor spline ``ref`` (a :class:`.data.DataRef`); its derivative along an argument is the atom
+  of one order more (``fdiff``), 0 past the degree — the exact derivative of the cell polynomial
+  that ``jax.grad`` takes of :func:`vpforms.grids._bspline.evaluate`;
+* a :class:`.data.DataRef` scalar (the base point c of an antiderivative, a grid bound) is a
+  number the kernel reads at run time.
 
 So the C source depends only on the spline's structure (degrees, periodic axes, which derivatives
-and antiderivatives); the knots, cell polynomials, coefficients and scalars travel in one
-``const double *fd`` array (:func:`field_data`), and a new grid of the same structure reuses the
-compiled kernel. Layout of ``fd``: slot j (in the order the emitter first meets the refs) is
-``HS`` doubles at ``fd + HS·j``: a scalar's value, or a spline's header (offsets of its three knot
-vectors, three cell-polynomial tables and coefficients; m₁, m₂, m₃; the three periods, 0 for
-none; per axis (m − k)/(t_m − t_k), the interval guess); the arrays follow the headers.
+and antiderivatives); the knots, cell polynomials, coefficients and scalars travel in the
+``const double *fd`` array of :mod:`.data`, and a new grid of the same structure reuses the
+compiled kernel. A spline's header (:func:`_pack`): offsets of its three knot vectors, three
+cell-polynomial tables and coefficients; m₁, m₂, m₃; the three periods, 0 for none; per axis
+(m − k)/(t_m − t_k), the interval guess.
 
 Evaluation in C (:data:`C_HELPERS`) is that of :mod:`vpforms.grids._bspline`: on a periodic axis
 x is wrapped into [t_k, t_k + T) (``jnp.mod``: fmod, + T where negative); on a non-periodic axis
@@ -29,79 +28,48 @@ differentiated exactly (Horner), and the coefficient block is contracted axis 0,
 
 from __future__ import annotations
 
-import contextvars
 import weakref
 from collections.abc import Sequence
-from contextlib import contextmanager
 from typing import Any
 
 import numpy as np
 import sympy as sp
+from sympy.core.function import ArgumentIndexError
 
-from ...._vecpot import GAUGE_ZERO, RelabelledPotential, SumPotential, VectorPotential
 from ....grids._bspline import PeriodicAntiderivative, TensorSpline
 from ....grids._spline_potential import SplinePotential
-from ....symbolic import _symbols as G
+from .data import HS, PACKERS, DataRef, code3, e_sub, emission, uncode3
 
-__all__ = ["C_HELPERS", "HS", "DataRef", "SplineAt", "collecting", "data_refs", "domain_reason", "domain_test",
-           "field_data", "hoist", "scope", "spline_calls", "spline_field_exprs", "spline_pair", "spline_reason"]
-
-#: doubles per slot of the data array (a scalar, or a spline's header)
-HS = 16
-
-
-class DataRef(sp.Dummy):
-    """A symbol standing for run-time data: a :class:`TensorSpline` (inside :class:`SplineAt`) or
-    a float (printed as a read of the data array). A Dummy: two grids never share a ref, and
-    expressions order by its name (structural), not by the data."""
-
-    obj: Any = None
-
-    def __new__(cls, name: str, obj: Any):
-        self = super().__new__(cls, name)
-        self.obj = obj
-        return self
-
-
-def _code(v: Sequence[int]) -> sp.Integer:
-    """Three small integers (orders, degrees: each < 10) as one SymPy integer (an argument of
-    :class:`SplineAt`, which SymPy differentiates like any other: it must be an Expr)."""
-    return sp.Integer(100 * v[0] + 10 * v[1] + v[2])
-
-
-def _uncode(c: Any) -> list[int]:
-    c = int(c)
-    return [c // 100, c // 10 % 10, c % 10]
-
+__all__ = ["C_HELPERS", "SplineAt", "domain_reason", "domain_test", "hoist", "spline_calls",
+           "spline_exprs"]
 
 class SplineAt(sp.Function):
     """∂^orders s(x₁, x₂, x₃) of the tensor spline ``ref``: args (ref, orders, degrees, x₁, x₂,
-    x₃), orders and degrees as :func:`_code` s."""
+    x₃), orders and degrees as :func:`.data.code3` s."""
 
     nargs = 6
     _vp_native = True  # printed by spline_calls, not by the C printer
 
     def fdiff(self, argindex: int = 1):
         if argindex < 4:
-            raise sp.ArgumentIndexError(self, argindex)
+            raise ArgumentIndexError(self, argindex)
         a = argindex - 4
         ref, orders, degrees, *x = self.args
-        o = _uncode(orders)
+        o = uncode3(orders)
         o[a] += 1
-        if o[a] > _uncode(degrees)[a]:  # the cell polynomials have degree k along axis a
+        if o[a] > uncode3(degrees)[a]:  # the cell polynomials have degree k along axis a
             return sp.Integer(0)
-        return SplineAt(ref, _code(o), degrees, *x)
+        return SplineAt(ref, code3(o), degrees, *x)
 
     @property
     def orders(self) -> list[int]:
-        return _uncode(self.args[1])
+        return uncode3(self.args[1])
 
     @property
     def degrees(self) -> list[int]:
-        return _uncode(self.args[2])
+        return uncode3(self.args[2])
 
 
-# ----------------------------------------------------------------------------- SymPy of potentials
 _SPLINE_REFS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
@@ -111,79 +79,29 @@ def _spline_atom(s: TensorSpline, name: str, x: Sequence[Any]) -> sp.Expr:
         ref = _SPLINE_REFS[s] = DataRef(name, s)
     if max(s.degrees) > 9:
         raise ValueError(f"native splines have degrees ≤ 9; got {s.degrees}")
-    return SplineAt(ref, _code((0, 0, 0)), _code(s.degrees), *x)
+    return SplineAt(ref, code3((0, 0, 0)), code3(s.degrees), *x)
 
 
-class _Exprs:
-    """A vector potential as SymPy in G.x: ``components`` and ``antiderivative(k, c)`` (exact)."""
 
-    def __init__(self, components, antiderivative):
-        self.components, self.antiderivative = components, antiderivative
+def spline_exprs(A: SplinePotential, x: Sequence[Any]) -> tuple:
+    """(components, antiderivative(k, c, n)) of a spline potential as atoms at x: the
+    antiderivative is exact (a spline; far round a periodic axis μ·(x_k − c) + Q), n unused."""
+    comps = tuple(_spline_atom(s, f"A{i}", x) for i, s in enumerate(A.splines))
+    scal: dict = {}
 
-
-def _pot_exprs(A: Any) -> _Exprs | str:
-    """The SymPy form of a vector potential built of splines, or why there is none."""
-    x = G.x
-    if isinstance(A, SplinePotential):
-        comps = tuple(_spline_atom(s, f"A{i}", x) for i, s in enumerate(A.splines))
-        scal: dict = {}
-
-        def anti(k, c):
-            obj = A.antiderivative(k, c)
-            if isinstance(obj, TensorSpline):
-                return _spline_atom(obj, f"X{k}", x)
-            if isinstance(obj, PeriodicAntiderivative):  # μ·(x_k − c) + Q (exact far round)
-                key = (k, float(obj.c))
-                if key not in scal:
-                    scal[key] = DataRef(f"c{k}", float(obj.c))
-                return ((x[obj.axis] - scal[key]) * _spline_atom(obj.M, f"M{k}", x)
-                        + _spline_atom(obj.Q, f"Q{k}", x))
-            return None
-
-        return _Exprs(comps, anti)
-    if isinstance(A, RelabelledPotential):  # Ã_k(x) = s·A_{π(k)}(x·π⁻¹), χ̃_k = s·χ_{π(k)}(x·π⁻¹)
-        base = _pot_exprs(A.base)
-        if isinstance(base, str):
-            return base
-        sub = {x[j]: x[A._inv[j]] for j in range(3)}
-        s = sp.Integer(int(A._sign))
-
-        def pull(e):
-            return None if e is None else s * sp.sympify(e).xreplace(sub)
-
-        return _Exprs(tuple(pull(base.components[m]) for m in A._idx),
-                      lambda k, c: pull(base.antiderivative(A._idx[k], c)))
-    if isinstance(A, SumPotential):
-        parts = [_pot_exprs(p) for p in A.parts]
-        for p in parts:
-            if isinstance(p, str):
-                return p
-
-        def anti(k, c):
-            terms = [p.antiderivative(k, c) for p in parts]
-            return None if any(t is None for t in terms) else sp.Add(*terms)
-
-        return _Exprs(tuple(sp.Add(*(p.components[i] for p in parts)) for i in range(3)), anti)
-    return (f"its vector potential ({getattr(A, 'description', type(A).__name__)}) is not a "
-            "spline; native evaluates splines of A (vpforms.grids) and SymPy fields only")
-
-
-def _vector_potential(field: Any) -> VectorPotential | None:
-    """The vector potential the field's pairs are built from (as ``Field._gauge_potentials``)."""
-    objs = [A for A in getattr(field, "_vector_potentials", ()) if isinstance(A, VectorPotential)]
-    if not objs or getattr(field, "exprs", None) is not None:
+    def anti(k, c, n):
+        obj = A.antiderivative(k, c)
+        if isinstance(obj, TensorSpline):
+            return _spline_atom(obj, f"X{k}", x)
+        if isinstance(obj, PeriodicAntiderivative):  # μ·(x_k − c) + Q (exact far round)
+            key = (k, float(obj.c))
+            if key not in scal:
+                scal[key] = DataRef(f"c{k}", float(obj.c))
+            return ((x[obj.axis] - scal[key]) * _spline_atom(obj.M, f"M{k}", x)
+                    + _spline_atom(obj.Q, f"Q{k}", x))
         return None
-    return next((A for A in objs if A.exact_gauge), objs[0])
 
-
-def spline_reason(field: Any) -> str | None:
-    """None if ``field`` is a callable field of a spline vector potential native can evaluate
-    (then :func:`spline_pair`, :func:`spline_field_exprs` apply), else why not."""
-    A = _vector_potential(field)
-    if A is None:
-        return "field was given as a JAX callable; build it with Field.from_sympy"
-    got = _pot_exprs(A)
-    return got if isinstance(got, str) else None
+    return comps, anti
 
 
 def domain_reason(field: Any) -> str | None:
@@ -193,26 +111,6 @@ def domain_reason(field: Any) -> str | None:
     if inside is not None and not isinstance(getattr(inside, "__self__", None), SplinePotential):
         return "the field's domain test (field.inside) is not a spline grid's; native emits those only"
     return None
-
-
-def spline_field_exprs(field: Any) -> tuple:
-    """a = ∇×A (as :func:`vpforms._vecpot.curl_of`) in G.x, from the spline atoms."""
-    A = _pot_exprs(_vector_potential(field)).components
-    x = G.x
-    return (sp.diff(A[2], x[1]) - sp.diff(A[1], x[2]), sp.diff(A[0], x[2]) - sp.diff(A[2], x[0]),
-            sp.diff(A[1], x[0]) - sp.diff(A[0], x[1]))
-
-
-def spline_pair(field: Any, splitting: str) -> tuple | str:
-    """The SE (F¹, F³) or DL (G¹, G²) pair A − ∇χ, χ = ∫_{c_k}^{x_k} A_k (exact) with c = the
-    field's origin, as :meth:`vpforms._vecpot.VectorPotential.gauge`; or why there is none."""
-    A = _pot_exprs(_vector_potential(field))
-    k = GAUGE_ZERO[splitting]
-    chi = A.antiderivative(k, float(field.origin[k]))
-    if chi is None:
-        return f"the {splitting.upper()} gauge integral of this spline is not generated natively"
-    keep = (0, 2) if splitting == "se" else (0, 1)
-    return tuple(A.components[i] - sp.diff(chi, G.x[i]) for i in keep)
 
 
 def domain_test(field: Any) -> list[tuple[int, DataRef, DataRef]]:
@@ -232,95 +130,23 @@ def domain_test(field: Any) -> list[tuple[int, DataRef, DataRef]]:
 
 
 # ----------------------------------------------------------------------------- emission and data
-class _Emission:
-    """What the emitter of one kernel knows: the data refs (slots in order of first use), the
-    knot classes (axes of splines with equal knots, degree and period: one interval search and
-    basis serve them all), and a stack of C scopes holding the axis computations already emitted
-    (an outer scope's are visible in the inner ones: a Newton loop reuses what was hoisted)."""
-
-    def __init__(self):
-        self.refs: list = []
-        self.classes: list = []
-        self.scopes: list[dict] = [{}]
-        self.count = 0
-
-    def slot(self, ref: DataRef) -> int:
-        for j, r in enumerate(self.refs):
-            if r is ref:
-                return j
-        self.refs.append(ref)
-        return len(self.refs) - 1
-
-    def knot_class(self, ref: DataRef, a: int) -> int:
-        s = ref.obj
-        t, k, T = np.asarray(s.knots[a]), s.degrees[a], s.periods[a]
-        for j, (a2, t2, k2, T2) in enumerate(self.classes):
-            if (a2, k2, T2) == (a, k, T) and t2.shape == t.shape and np.array_equal(t2, t):
-                return j
-        self.classes.append((a, t, k, T))
-        return len(self.classes) - 1
-
-    def find(self, key: Any) -> Any:
-        for sc in reversed(self.scopes):
-            if key in sc:
-                return sc[key]
-        return None
+def _knot_class(em: Any, ref: DataRef, a: int) -> int:
+    """The knot class of axis a of ``ref``: axes of splines with equal knots, degree and period
+    share one interval search and basis."""
+    s = ref.obj
+    t, k, T = np.asarray(s.knots[a]), s.degrees[a], s.periods[a]
+    for j, (a2, t2, k2, T2) in enumerate(em.classes):
+        if (a2, k2, T2) == (a, k, T) and t2.shape == t.shape and np.array_equal(t2, t):
+            return j
+    em.classes.append((a, t, k, T))
+    return len(em.classes) - 1
 
 
-_ACTIVE: contextvars.ContextVar = contextvars.ContextVar("vp_native_data", default=None)
-
-
-@contextmanager
-def collecting():
-    """Collect the data refs the emitter meets (slots in order of first use); yields the list."""
-    em = _Emission()
-    token = _ACTIVE.set(em)
-    try:
-        yield em.refs
-    finally:
-        _ACTIVE.reset(token)
-
-
-def _em() -> _Emission:
-    em = _ACTIVE.get()
-    if em is None:
-        raise RuntimeError("spline data met outside kernel generation")
-    return em
-
-
-@contextmanager
-def scope(function: bool = False):
-    """A C block (``function``: a new C function, which sees nothing emitted before): axis
-    computations emitted inside are forgotten at its end. A no-op outside kernel generation."""
-    em = _ACTIVE.get()
-    if em is None:
-        yield
-        return
-    saved = (em.scopes, em.count)
-    em.scopes = [{}] if function else [*em.scopes, {}]
-    if function:
-        em.count = 0
-    try:
-        yield
-    finally:
-        em.scopes = saved[0]
-        if function:
-            em.count = saved[1]
-
-
-def _slot(ref: DataRef) -> int:
-    return _em().slot(ref)
-
-
-def data_refs(expr: Any) -> set:
-    return {s for s in sp.sympify(expr).free_symbols if isinstance(s, DataRef)}
-
-
-def _axis(em: _Emission, ref: DataRef, a: int, k: int, arg: Any, n: int, printer: Any,
+def _axis(em: Any, ref: DataRef, a: int, k: int, arg: Any, n: int, printer: Any,
           lines: list[str]) -> tuple[str, str]:
     """(the knot-interval variable, the basis array of order n) of axis a of ``ref`` at ``arg``,
     emitted into ``lines`` unless a visible scope has them."""
-    cls = em.knot_class(ref, a)
+    cls = _knot_class(em, ref, a)
     c = printer.doprint(e_sub(arg))
     cell = em.find((cls, c))
     if cell is None:
@@ -344,7 +170,7 @@ def hoist(exprs: list[Any], z: Any, printer: Any) -> list[str]:
     axis only, the interval and basis of its two other axes and a cache of the block contracted
     over them (the coefficients along the moving axis in its current cell: an iteration that
     stays in the cell costs one interval search, one basis and k + 1 products)."""
-    em = _ACTIVE.get()
+    em = emission(required=False)
     if em is None:
         return []
     lines: list[str] = []
@@ -388,12 +214,12 @@ def spline_calls(exprs: list[Any], tag: str, printer: Any) -> tuple[list[str], l
     coefficient block of a spline is contracted over axis 0 once per order along it, then over
     axis 1 once per pair of orders (the sums :func:`vpforms.grids._bspline._contract` shares);
     an atom :func:`hoist` prepared is read, or contracted from its cached line.
-    Returns the statements and ``exprs`` with the atoms replaced by their variables."""
+    Data scalars are left to the caller (:func:`.data.read_scalars`). Returns the statements and ``exprs`` with the atoms replaced by their variables."""
     exprs = [sp.sympify(e) for e in exprs]
     atoms = sorted({a for e in exprs for a in e.atoms(SplineAt)}, key=sp.default_sort_key)
     if not atoms:
         return [], exprs
-    em = _em()
+    em = emission()
     groups: dict = {}
     lines: list[str] = []
     rep: dict = {}
@@ -440,53 +266,29 @@ def spline_calls(exprs: list[Any], tag: str, printer: Any) -> tuple[list[str], l
             v = sp.Symbol(f"{p}_v{j}")
             lines.append(f"double {v} = vp_c2({k[2]}, {ax[2][o[2]][1]}, {p}_b{o[0]}{o[1]});")
             rep[m] = v
-    exprs = [e.xreplace(rep) for e in exprs]
-    scal = {r: sp.Symbol(f"fd[{HS * _slot(r)}]") for e in exprs for r in data_refs(e)}
-    return lines, [e.xreplace(scal) for e in exprs]
+    return lines, [e.xreplace(rep) for e in exprs]
 
 
-def e_sub(e: Any) -> Any:
-    """A data scalar inside an argument, as a read of ``fd``."""
-    return e.xreplace({r: sp.Symbol(f"fd[{HS * _slot(r)}]") for r in data_refs(e)})
+
+def _pack(o: TensorSpline, head: np.ndarray, put) -> None:
+    """A spline's header (module docstring); its arrays after the headers."""
+    c = np.asarray(o.coefficients)
+    if c.ndim != 3:
+        raise ValueError("native splines are scalar (coefficients of shape (m1, m2, m3))")
+    head[0:3] = [put(t) for t in o.knots]
+    head[3:6] = [put(P) for P in o.cells]
+    head[6] = put(c)
+    head[7:10] = c.shape
+    head[10:13] = [0.0 if T is None else float(T) for T in o.periods]
+    for ax, (t, k) in enumerate(zip(o.knots, o.degrees)):  # the interval guess of vp_cell
+        t = np.asarray(t)
+        m = t.size - k - 1
+        head[13 + ax] = (m - k) / (t[m] - t[k])
 
 
-def field_data(refs: Sequence[DataRef]) -> np.ndarray | None:
-    """The ``fd`` array of the refs (module docstring), or None when there are none."""
-    if not refs:
-        return None
-    head = np.zeros((len(refs), HS))
-    arrays: list[np.ndarray] = []
-    pos = len(refs) * HS
-
-    def put(a) -> int:
-        nonlocal pos
-        a = np.ascontiguousarray(np.asarray(a, dtype=np.float64)).ravel()
-        arrays.append(a)
-        pos += a.size
-        return pos - a.size
-
-    for j, r in enumerate(refs):
-        o = r.obj
-        if isinstance(o, TensorSpline):
-            c = np.asarray(o.coefficients)
-            if c.ndim != 3:
-                raise ValueError("native splines are scalar (coefficients of shape (m1, m2, m3))")
-            head[j, 0:3] = [put(t) for t in o.knots]
-            head[j, 3:6] = [put(P) for P in o.cells]
-            head[j, 6] = put(c)
-            head[j, 7:10] = c.shape
-            head[j, 10:13] = [0.0 if T is None else float(T) for T in o.periods]
-            for ax, (t, k) in enumerate(zip(o.knots, o.degrees)):  # the interval guess of vp_cell
-                t = np.asarray(t)
-                m = t.size - k - 1
-                head[j, 13 + ax] = (m - k) / (t[m] - t[k])
-        else:
-            head[j, 0] = float(o)
-    return np.concatenate([head.ravel(), *arrays])
+PACKERS[TensorSpline] = _pack
 
 
-#: the C evaluation of a spline at a point (module docstring); h is the spline's header in fd,
-#: whose offsets count from fd
 C_HELPERS = r"""
 /* axis a of the spline with header h at x: the knot interval i = clip(#{t <= x} - 1, k, m - 1)
    and y = x - t_i; on a periodic axis x wraps into [t_k, t_k + T) (jnp.mod), off a

@@ -30,7 +30,7 @@ import sympy as sp
 
 from ...._errors import RESULTS
 from ....symbolic import _symbols as G
-from . import splines
+from . import data
 from .assign import _C, _assign
 
 __all__ = ["WALL_CDEF", "speed_fn", "wall_entry"]
@@ -45,7 +45,7 @@ def speed_fn(field: Any, field_exprs) -> str:
     """``vp_speed(x1, x2, x3, toroidal, fd)``: |B| of the flow ẋ = a at x (``speed`` of
     :mod:`vpforms.fieldlines._geometry`), a from the field's expressions (``field_exprs``)."""
     xs = {G.x[i]: _C[f"x{i + 1}"] for i in range(3)}
-    with splines.scope(function=True):
+    with data.scope(function=True):
         body = _assign([f"sp_a{i + 1}" for i in range(3)], [sp.sympify(e) for e in field_exprs(field)], xs, "sp")
     lines = "\n    ".join(body)
     return f"""{_simd_decls()}static inline _VP_INLINE double vp_speed(double x1, double x2, double x3, int32_t toroidal,
