@@ -27,10 +27,11 @@ from jax import lax
 from .. import _config  # noqa: F401  (float64)
 from .._errors import RESULTS
 from .._progress import _Bar
-from .._recovery import bare_method, count_how, recover_points
+from .._recovery import bare_method
 from .._solution import make_solution, saved_steps
+from ._advance import advance_with_recovery, failed_steps, start_state
 
-__all__ = ["auto_chunk_size", "integrate_jax"]
+__all__ = ["JaxKernel", "auto_chunk_size", "integrate_jax"]
 
 #: Default device-memory budget (bytes) for the saved states of one chunk and one segment.
 _SEGMENT_BYTES = 64 * 2**20
@@ -91,63 +92,6 @@ def _segment_kernel(step_with_status, save_every, n_blocks, x, status, failed, n
     return x, status, failed, saved.transpose(1, 0, 2), recovered
 
 
-def _recover_segment(method, block_kernel, C, n_real, k, L, n0, h, stop, st_before, x, st, fl, saved,
-                     rc, how):
-    """Recover the bare steps that failed in this segment and resume those particles (issue #12).
-
-    A particle whose bare step n failed is frozen at its state before step n: take step n with
-    the recovering method there (:func:`vpforms._recovery.recover_points`), then run the rest of
-    the segment for the re-simulated particles alone, one save-block at a time (so a particle
-    that fails again costs one block, not the segment), overwriting their saved states from the
-    block holding step n on.  Particles no alternative can step stay frozen with the bare status.
-    """
-    st_np = np.asarray(st)
-    fresh = np.flatnonzero((np.asarray(st_before) == RESULTS.successful) & (st_np != RESULTS.successful))
-    fresh = fresh[fresh < n_real]  # not the copies that pad the last chunk
-    if fresh.size == 0:
-        return x, st, fl, saved, rc
-    x, st, fl, saved, rc = (np.array(a) for a in (x, st, fl, saved, rc))
-    blk = (fl[fresh] - n0) // k
-    start = np.zeros(st.shape, np.int64)
-    R = min(C, 64)  # re-simulated particles per call (one more compiled shape of the bare kernel)
-    members = np.empty(0, np.int64)
-
-    def run_block(idx, nb):
-        for lo in range(0, idx.size, R):
-            part = idx[lo:lo + R]
-            pad = np.concatenate([np.arange(part.size), np.zeros(R - part.size, np.int64)])
-            out = block_kernel(jnp.asarray(x[part][pad]), jnp.zeros(R, jnp.int32),
-                               jnp.full(R, -1, jnp.int32), jnp.asarray(nb), h, stop,
-                               jnp.zeros(R, jnp.int32), jnp.asarray(start[part][pad], dtype=jnp.int32))
-            x[part], st[part], fl[part] = (np.asarray(o)[: part.size] for o in out[:3])
-
-    for b in range(int(blk.min()), L):
-        nb = n0 + b * k
-        if nb >= int(stop):
-            break
-        members = np.concatenate([members, fresh[blk == b]])
-        run = members[st[members] == RESULTS.successful]
-        start[run] = nb
-        pending = members[st[members] != RESULTS.successful]
-        while True:
-            if pending.size:  # take the failed step with the recovering method
-                X, s2, code = recover_points(method, x[pending], float(h))
-                count_how(code, how)
-                ok = s2 == RESULTS.successful
-                good, dead = pending[ok], pending[~ok]
-                saved[dead, b:] = x[dead][:, None]  # frozen for good, with the bare status and step
-                members = np.setdiff1d(members, dead)
-                x[good], rc[good], start[good] = X[ok], rc[good] + 1, fl[good] + 1
-                st[good], fl[good] = RESULTS.successful, -1
-                run = np.concatenate([run, good])
-            if run.size == 0:
-                break
-            run_block(run, nb)
-            pending, run = run[st[run] != RESULTS.successful], np.empty(0, np.int64)
-        saved[members, b] = x[members]
-    return tuple(jnp.asarray(a) for a in (x, st, fl, saved, rc))
-
-
 def auto_chunk_size(n_particles: int, n_saves: int = 2) -> int:
     """A chunk size that keeps one chunk's saved states and work arrays around ≤ 64 MiB."""
     per_particle = 8 * 3 * max(n_saves, 16) + 512
@@ -180,11 +124,112 @@ class _StepFn:
 
 
 
+class JaxKernel:
+    """The JAX peer of :class:`vpforms.backends.native.runner.NativeKernel`: the same in-place
+    :meth:`advance` (the contract of :mod:`vpforms.backends._advance`), by :func:`_segment_kernel`
+    on batches of particles.
+
+    A batch is a fixed chunk of ``chunk`` particles by index (the last one padded with copies of
+    its last particle, so one compilation serves every batch; frozen members ride along, masked)
+    or, for particles resumed after a recovered step while the others are already at the target,
+    ``small`` of those alone: a second compiled shape, so that resuming a few particles does not
+    cost a whole chunk. Each kernel call runs ``blocks`` save-blocks of ``k``
+    steps from a multiple of k; a particle takes only its own steps n ≥ its n (``start``)."""
+
+    def __init__(self, method: Any, chunk: int, k: int, blocks: int, small: int = 64):
+        self.step = _StepFn(method)
+        self.chunk, self.k, self.blocks = int(chunk), int(k), int(blocks)
+        self.small = min(int(small), self.chunk)
+        self._kernel = partial(_segment_kernel, self.step, self.k, self.blocks)
+
+    def advance(self, x: np.ndarray, status: np.ndarray, n: np.ndarray, n_target: int, h: float,
+                save_every: int = 0, n_total: int = 0, xs: np.ndarray | None = None, recovered=None):
+        """In place: every live particle with n < n_target steps until n_target or its failure.
+
+        With ``save_every`` > 0 (it must equal ``k``) the states after steps j·k are written into
+        slot j of ``xs`` (N, S, 3), the state after ``n_total`` into the last slot; a frozen
+        particle's later slots get its frozen state. ``recovered`` counts the steps that a user
+        method's own ``step_with_recovery`` recovered."""
+        need = (status == RESULTS.successful) & (n < n_target)
+        live = np.flatnonzero(need)
+        if live.size == 0:
+            return
+        if save_every:
+            assert save_every == self.k and xs is not None
+        rec = np.zeros(n.shape, np.int64) if recovered is None else recovered
+        if live.size < np.count_nonzero(status == RESULTS.successful):
+            # particles resumed after a recovered step (the others already at n_target): batches
+            # of `small` of them alone
+            for lo in range(0, live.size, self.small):
+                idx = live[lo:lo + self.small]
+                self._batch(idx, self.small, 0, x, status, n, rec, n_target, h, save_every, n_total, xs)
+            return
+        # the fixed chunks [cC, (c+1)C): a particle's batch never depends on which others failed
+        # (the steps of a batch are vectorised: its frozen members ride along, masked)
+        for lo in range(0, need.size, self.chunk):
+            if need[lo:lo + self.chunk].any():
+                idx = np.arange(lo, min(lo + self.chunk, need.size))
+                self._batch(idx, self.chunk, idx.size - 1, x, status, n, rec, n_target, h, save_every,
+                            n_total, xs)
+
+    def _batch(self, idx, B, fill, x, status, n, rec, n_target, h, save_every, n_total, xs):
+        """One batch of B lanes: the particles idx, padded with copies of idx[fill]."""
+        pad = np.concatenate([np.arange(idx.size), np.full(B - idx.size, fill, np.int64)])
+        st0 = status[idx]
+        xb, stb = jnp.asarray(x[idx][pad]), jnp.asarray(st0[pad], dtype=jnp.int32)
+        flb, rcb = jnp.full(B, -1, jnp.int32), jnp.zeros(B, jnp.int32)
+        n_i = n[idx]
+        go = st0 == RESULTS.successful
+        startb = jnp.asarray(n_i[pad], dtype=jnp.int32)
+        hj, stop = jnp.asarray(h), jnp.asarray(n_target)
+        n0 = int(n_i[go & (n_i < n_target)].min()) // self.k * self.k
+        while n0 < n_target:
+            xb, stb, flb, saved, rcb = self._kernel(xb, stb, flb, jnp.asarray(n0), hj, stop, rcb, startb)
+            if save_every:
+                self._save(xs, idx[go], n_i[go], np.asarray(saved)[: idx.size][go], n0, n_target, n_total)
+            n0 += self.k * self.blocks
+        stb, flb = np.asarray(stb)[: idx.size], np.asarray(flb)[: idx.size]
+        x[idx] = np.asarray(xb)[: idx.size]
+        status[idx] = stb
+        n[idx] = np.where(~go, n_i, np.where(stb == RESULTS.successful, np.maximum(n_i, n_target), flb))
+        rec[idx] += np.asarray(rcb)[: idx.size]
+
+    def _save(self, xs, idx, n_i, saved, n0, n_target, n_total):
+        """The block states of one kernel call into their slots: block b ends at step e = n0 +
+        (b + 1)k (slot e/k), or at n_target where the call's last block was cut there (the last
+        slot when n_target = n_total); only blocks ending after a particle's own start."""
+        k, S = self.k, xs.shape[1]
+        full = max(0, min(saved.shape[1], (n_target - n0) // k))  # blocks ending at e ≤ n_target
+        if full:
+            e = n0 + k * np.arange(1, full + 1)
+            s0 = n0 // k + 1  # their slots s0 … s0 + full − 1
+            new = n_i[:, None] < e[None, :]
+            if new.all() and idx[-1] - idx[0] == idx.size - 1:  # the common case: one slice
+                xs[idx[0]:idx[-1] + 1, s0:s0 + full] = saved[:, :full]
+            else:
+                r, c = np.nonzero(new)
+                xs[idx[r], s0 + c] = saved[r, c]
+        cut = n0 + (full + 1) * k  # the next block ends past n_target: its state is that at n_target
+        if full < saved.shape[1] and n_target == n_total and n_total % k and cut - k < n_target:
+            new = n_i < n_target
+            xs[idx[new], S - 1] = saved[new, full]
+
+
+def _fill_frozen(xs, steps, status, n, x):
+    """The saved slots after a frozen particle's failed step n hold its frozen state (as on the
+    native backend): the kernel wrote those of the call it failed in, not of later calls."""
+    dead = np.flatnonzero(status != RESULTS.successful)
+    if dead.size:
+        r, c = np.nonzero(steps[None, :] > n[dead][:, None])
+        xs[dead[r], c] = x[dead[r]]
+
+
 def integrate_jax(method: Any, pts: np.ndarray, single: bool, h: float, n_steps: int,
                   save_every: int | None, t0: float, chunk_size: int | None, progress: Any,
                   segment_blocks: int | None, backend_reason: str):
     """The JAX counterpart of :func:`vpforms.backends.native.runner.integrate_native`: the same
-    arguments (checked by :func:`vpforms.integrate`), the same :class:`~vpforms.Solution`."""
+    arguments (checked by :func:`vpforms.integrate`), the same :class:`~vpforms.Solution`, the same
+    recovery splice (:func:`vpforms.backends._advance.advance_with_recovery`)."""
     N = pts.shape[0]
     steps = saved_steps(n_steps, save_every)
     # save_every None: only x0 and the final state are kept; fixed blocks (32 steps, 8 per call)
@@ -204,56 +249,32 @@ def integrate_jax(method: Any, pts: np.ndarray, single: bool, h: float, n_steps:
         # ≤ 64 MiB of saved states per call, and ≥ ~20 calls per chunk for a live progress bar
         cap = max(1, _SEGMENT_BYTES // (24 * C))
         L = max(1, min(cap, -(-n_blocks // 20) if n_blocks else 1))
-    n_segments = -(-n_blocks // L)
 
     xs = np.empty((N, S, 3))
-    status = np.zeros(N, dtype=np.int32)
-    failed = np.full(N, -1, dtype=np.int64)
-    recovered = np.zeros(N, dtype=np.int64)
     xs[:, 0] = pts
-    bare = bare_method(method)  # recovery runs lazily, on the host, where a bare step failed
-    kernel = partial(_segment_kernel, _StepFn(bare), k, L)
-    block_kernel = partial(_segment_kernel, _StepFn(bare), k, 1)  # re-simulation after a recovery
-    recovered_how: dict[str, int] = {}
-    hj = jnp.asarray(h)
-    stop = jnp.asarray(n_steps)  # steps n ≥ n_steps of an overshooting segment are skipped
+    x, status, n, recovered = start_state(pts)
+    # recovery runs lazily, on the host, where a bare step failed
+    kernel = JaxKernel(bare_method(method), C, k, L)
+    how: dict[str, int] = {}
+    saving = (k, n_steps, xs) if save_every is not None else None
+    ends = [min(e, n_steps) for e in range(L * k, n_steps + L * k, L * k)] if n_steps else []
 
     bar = _Bar(progress, N * n_steps, "integrating")
     t_wall = time.perf_counter()
     try:
-        for c in range(n_chunks):
-            lo, hi = c * C, min((c + 1) * C, N)
-            block = pts[lo:hi]
-            if hi - lo < C:  # pad the last chunk so that it reuses the compiled kernel
-                block = np.concatenate([block, np.repeat(block[-1:], C - (hi - lo), axis=0)])
-            x = jnp.asarray(block)
-            st = jnp.zeros(C, dtype=jnp.int32)
-            fl = jnp.full(C, -1, dtype=jnp.int32)
-            rc = jnp.zeros(C, dtype=jnp.int32)
-            for s in range(n_segments):
-                n0 = s * L * k
-                st_before = st
-                x, st, fl, saved, rc = kernel(x, st, fl, jnp.asarray(n0), hj, stop, rc)
-                x.block_until_ready()  # dispatch is asynchronous: sync so the bar tracks real work
-                if bare is not method:
-                    x, st, fl, saved, rc = _recover_segment(
-                        method, block_kernel, C, hi - lo, k, L, n0, hj, stop, st_before, x, st, fl, saved, rc, recovered_how)
-                if save_every is not None:
-                    b_lo = s * L
-                    b_hi = min(b_lo + L, n_blocks)
-                    xs[lo:hi, 1 + b_lo : 1 + b_hi] = np.asarray(saved)[: hi - lo, : b_hi - b_lo]
-                bar.update((hi - lo) * (min(n0 + L * k, n_steps) - n0))
-            if save_every is None and n_steps:
-                xs[lo:hi, -1] = np.asarray(x)[: hi - lo]
-            status[lo:hi] = np.asarray(st)[: hi - lo]
-            failed[lo:hi] = np.asarray(fl)[: hi - lo]
-            recovered[lo:hi] = np.asarray(rc)[: hi - lo]
+        done = 0
+        for end in ends:
+            advance_with_recovery(kernel, method, x, status, n, recovered, end, h, how, saving=saving)
+            bar.update(N * (end - done))
+            done = end
     finally:
         bar.close()
     wall = time.perf_counter() - t_wall
+    if save_every is None and n_steps:
+        xs[:, -1] = x
+    else:
+        _fill_frozen(xs, steps, status, n, x)
 
     stats = dict(wall_s=wall, chunk_size=C, n_chunks=n_chunks, backend="jax", backend_reason=backend_reason)
-    return make_solution(method, single, h, n_steps, save_every, t0, steps, xs, status, failed, recovered,
-                         stats, recovered_how)
-
-
+    return make_solution(method, single, h, n_steps, save_every, t0, steps, xs, status,
+                         failed_steps(status, n), recovered, stats, how)

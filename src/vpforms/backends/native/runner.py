@@ -3,11 +3,12 @@
 :func:`run_points` is the low-level entry (no argument checks: a NaN initial condition gives the
 ``nonfinite`` status); :func:`integrate_native` is what :func:`vpforms.integrate` dispatches to.
 
-Recovery (same as the JAX path): the kernel is built for ``method.without_recovery()``; when a
-particle's native step fails it stops at that step, and for a recovering method that one step is
-taken by :func:`vpforms._recovery.recover_points` (the JAX recovering step, exactly as the JAX
-backend does); on success the particle goes on natively from the next step (``recovered`` counts
-these steps); otherwise, and always for a bare method, it stays frozen with the bare status.
+Recovery: the kernel is built for ``method.without_recovery()``; a particle whose native step
+fails stops at that step, and :func:`vpforms.backends._advance.advance_with_recovery` — the splice
+the JAX backend uses too — takes that one step with the recovering method
+(:func:`vpforms._recovery.recover_points`); on success the particle goes on natively from the next
+step (``recovered`` counts these steps); otherwise, and always for a bare method, it stays frozen
+with the bare status.
 """
 
 from __future__ import annotations
@@ -19,8 +20,8 @@ import numpy as np
 
 from ..._errors import RESULTS
 from ..._progress import _Bar, _is_terminal
-from ..._recovery import bare_method, count_how, recover_points
 from ..._solution import make_solution, saved_steps
+from .._advance import advance_with_recovery, failed_steps, start_state
 from .build import build
 from .codegen import CDEF, kernel_parts
 from .codegen.sections import SECTIONS_CDEF
@@ -48,8 +49,10 @@ class NativeKernel:
         self._ffi = FFI()
 
     def advance(self, x: np.ndarray, status: np.ndarray, n: np.ndarray, n_target: int, h: float,
-                save_every: int = 0, n_total: int = 0, xs: np.ndarray | None = None):
-        """In place: every live particle with n < n_target steps until n_target or its failure.
+                save_every: int = 0, n_total: int = 0, xs: np.ndarray | None = None, recovered=None):
+        """In place: every live particle with n < n_target steps until n_target or its failure
+        (the contract of :mod:`vpforms.backends._advance`; ``recovered`` is not touched: the C step
+        never recovers, the splice does).
 
         With ``save_every`` > 0 the kernel also writes the saved states into ``xs`` (N, S, 3),
         C-contiguous: slot j the state after step j·save_every, the last slot after ``n_total``
@@ -106,72 +109,18 @@ def kernel_for(method: Any, engine: str = "auto", entry: str = "run") -> NativeK
     return hit[1]
 
 
-def _advance_with_recovery(kernel, method, x, status, n, recovered, n_target, h, how, saving=None,
-                           events=None):
-    """Advance natively to n_target; recover failed steps lazily as the JAX backend does
-    (:mod:`vpforms._recovery`: the same alternatives, in the same order) and go on natively.
-    ``saving`` = (save_every, n_total, xs): the kernel writes the saves (:meth:`NativeKernel.advance`);
-    a recovered step's own save is written here. ``events`` (:class:`.events.Events`): the kernel
-    records section crossings instead of saving; a recovered step is checked for one here. Or
-    (:class:`.walls.WallRun`) the kernel stops lines at a wall; a recovered step that leaves it
-    (``events.recovered`` returns that mask) stops its line there."""
-    lazy = bare_method(method) is not method
-    save_every, n_total, xs = saving if saving is not None else (0, 0, None)
-    while True:
-        before = status.copy()
-        if events is None:
-            kernel.advance(x, status, n, n_target, h, save_every, n_total, xs)
-        else:
-            events.advance(kernel, x, status, n, n_target, h)
-        idx = np.flatnonzero((before == RESULTS.successful) & (status != RESULTS.successful))
-        # a non-finite state fails every alternative too (each maps the same point): not tried
-        idx = idx[np.all(np.isfinite(x[idx]), axis=1)]
-        if events is not None:  # a line the kernel stopped at a wall did not fail: not retried
-            idx = idx[~events.stopped(idx)]
-        if idx.size == 0 or not lazy:
-            return
-        X, st, code = recover_points(method, x[idx], h)
-        count_how(code, how)
-        good = st == RESULTS.successful
-        g = idx[good]
-        if g.size == 0:
-            return
-        Xg = X[good]
-        if events is not None:  # the recovered step n → n+1, from x (before) to X
-            stop = events.recovered(g, n[g], x[g], Xg)
-            if stop is not None:  # a wall (.walls): the lines it takes out stay at x_n, stopped
-                status[g[stop]] = RESULTS.left_domain
-                g, Xg = g[~stop], Xg[~stop]
-        x[g] = Xg
-        status[g] = RESULTS.successful
-        n[g] += 1
-        recovered[g] += 1
-        if xs is not None:  # the recovered step's save (the kernel filled the frozen state there)
-            at = (n[g] % save_every == 0) | (n[g] == n_total)
-            slot = np.where(n[g] % save_every == 0, n[g] // save_every, xs.shape[1] - 1)
-            xs[g[at], slot[at]] = x[g[at]]
-
-
-def _start(pts):
-    """The runner's state at step 0: a C-contiguous copy of the points, statuses, step counts,
-    recovered-step counts (what :meth:`NativeKernel.advance` updates in place)."""
-    N = pts.shape[0]
-    return (np.array(pts, dtype=np.float64, order="C", copy=True), np.zeros(N, dtype=np.int32),
-            np.zeros(N, dtype=np.int64), np.zeros(N, dtype=np.int64))
-
-
 def run_with_events(kernel, method, pts, h, n_steps, events, progress_cb=None, calls=CALLS):
     """Advance points (N, 3) natively for n_steps steps of h with ``events`` (the section crossings
     of :class:`.events.Events`, the wall of :class:`.walls.WallRun`) in at most ``calls`` kernel
     calls (the progress bar's granularity), each followed by the JAX recovery of the steps that
     failed in it; stops early once no line is live. Returns (x, status, n, recovered, how)."""
     N = pts.shape[0]
-    x, status, n, recovered = _start(pts)
+    x, status, n, recovered = start_state(pts)
     how: dict[str, int] = {}
     ends = np.unique(np.linspace(0, n_steps, min(n_steps, calls) + 1).astype(np.int64))[1:]
     done = 0
     for end in ends:
-        _advance_with_recovery(kernel, method, x, status, n, recovered, int(end), h, how, events=events)
+        advance_with_recovery(kernel, method, x, status, n, recovered, int(end), h, how, events=events)
         if progress_cb is not None:
             progress_cb(N * int(end - done))
         done = int(end)
@@ -192,13 +141,6 @@ def _put(xs: np.ndarray, j: int, x: np.ndarray) -> None:
     xs.view(_ROW)[:, j, 0] = x.view(_ROW)[:, 0]
 
 
-def _failed_steps(status: np.ndarray, n: np.ndarray) -> np.ndarray:
-    """The failed step of each particle (its step count n where it failed, −1 elsewhere), written
-    over ``n`` (the runner's scratch, not used afterwards): no new (N,) array."""
-    np.putmask(n, status == RESULTS.successful, -1)
-    return n
-
-
 def run_points(method, pts, h, steps, progress_cb=None, engine="auto", save=None, how=None):
     """Advance points (N, 3) natively and return (xs (N, S, 3), status, failed_step, recovered).
 
@@ -210,18 +152,18 @@ def run_points(method, pts, h, steps, progress_cb=None, engine="auto", save=None
     save = np.ones(len(steps), bool) if save is None else np.asarray(save, bool)
     kernel = kernel_for(method, engine)
     N = pts.shape[0]
-    x, status, n, recovered = _start(pts)
+    x, status, n, recovered = start_state(pts)
     slot = np.cumsum(save) - 1
     xs = np.empty((N, int(save.sum()), 3))
     if save[0]:
         _put(xs, 0, x)
     for j in range(1, len(steps)):
-        _advance_with_recovery(kernel, method, x, status, n, recovered, int(steps[j]), h, how)
+        advance_with_recovery(kernel, method, x, status, n, recovered, int(steps[j]), h, how)
         if save[j]:
             _put(xs, int(slot[j]), x)
         if progress_cb is not None:
             progress_cb(N * int(steps[j] - steps[j - 1]))
-    return xs, status, _failed_steps(status, n), recovered
+    return xs, status, failed_steps(status, n), recovered
 
 
 def run_saving(method, pts, h, n_steps, save_every, progress_cb=None, engine="auto", how=None, calls=CALLS):
@@ -232,19 +174,19 @@ def run_saving(method, pts, h, n_steps, save_every, progress_cb=None, engine="au
     kernel = kernel_for(method, engine)
     steps = saved_steps(n_steps, save_every)
     N, S = pts.shape[0], steps.size
-    x, status, n, recovered = _start(pts)
+    x, status, n, recovered = start_state(pts)
     xs = np.empty((N, S, 3))
     _put(xs, 0, x)
     # segment ends at saved steps, ≤ `calls` of them (the last is n_steps)
     ends = np.unique(steps[np.linspace(0, S - 1, min(S - 1, calls) + 1).astype(np.int64)][1:])
     done = 0
     for end in ends:
-        _advance_with_recovery(kernel, method, x, status, n, recovered, int(end), h, how,
+        advance_with_recovery(kernel, method, x, status, n, recovered, int(end), h, how,
                                saving=(int(save_every), int(n_steps), xs))
         if progress_cb is not None:
             progress_cb(N * int(end - done))
         done = int(end)
-    return xs, status, _failed_steps(status, n), recovered
+    return xs, status, failed_steps(status, n), recovered
 
 
 def integrate_native(method, pts, single, h, n_steps, save_every, t0, progress, reason):

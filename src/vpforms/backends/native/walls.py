@@ -31,7 +31,7 @@ def _cylindrical(x: np.ndarray, toroidal: bool) -> tuple[np.ndarray, np.ndarray,
 
 class WallRun:
     """The per-line accumulators of one native wall trace, kept between kernel calls; ``advance`` and
-    ``recovered`` are what :func:`.runner._advance_with_recovery` calls on its ``events``."""
+    ``recovered`` are what :func:`vpforms.backends._advance.advance_with_recovery` calls on its ``events``."""
 
     def __init__(self, N: int, polygon: tuple[np.ndarray, np.ndarray], tolm: float, toroidal: bool,
                  inside: Callable[[np.ndarray, np.ndarray], np.ndarray], speed: Callable[[np.ndarray], np.ndarray],
