@@ -124,8 +124,11 @@ def scope(function: bool = False):
             em.count = saved[1]
 
 
-def data_refs(expr: Any) -> set:
-    return {s for s in sp.sympify(expr).free_symbols if isinstance(s, DataRef)}
+def data_refs(expr: Any) -> list:
+    """The data refs in ``expr`` in a structural order (name, then creation), never a set's: the
+    slots are given in the order met, so two fields of the same structure get the same C."""
+    return sorted((s for s in sp.sympify(expr).free_symbols if isinstance(s, DataRef)),
+                  key=lambda r: (r.name, r.dummy_index))
 
 
 def e_sub(e: Any) -> Any:
