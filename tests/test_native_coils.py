@@ -26,12 +26,14 @@ from vpforms.backends.native import build as nbuild
 from vpforms.backends.native.codegen import data, kernel_parts
 from vpforms.backends.native.codegen.assign import _C, _assign
 from vpforms.backends.native.codegen.coils import CoilA
-from vpforms.backends.native.runner import kernel_for, run_points
+from vpforms.backends.native.runner import run_points
 from vpforms.coils import Coil, CoilPotential, CoilSet
 from vpforms.coils._segments import segments_A
 from vpforms.diagnostics.volume import log_det
 from vpforms.symbolic import _symbols as G
 from vpforms.toroidal import box_from_cylindrical, to_toroidal, toroidal_field
+
+from ._kernel_reuse import assert_reuses_kernel
 
 _OK, _WHY = vp.native.available()
 pytestmark = pytest.mark.skipif(not _OK, reason=f"native backend unavailable: {_WHY}")
@@ -200,17 +202,7 @@ def test_other_coils_reuse_the_compiled_kernel(tor):
     m1, m2 = vp.scheme(tor, "SE+SE", recover=False), vp.scheme(other, "SE+SE", recover=False)
     (s1, d1), (s2, d2) = kernel_parts(m1), kernel_parts(m2)
     assert s1 == s2 and d1.shape != d2.shape
-    k1 = kernel_for(m1)
-    before = dict(nbuild.COUNTERS)
-    k2 = kernel_for(m2)
-    assert nbuild.COUNTERS["compiled"] == before["compiled"] and k2.lib is k1.lib
-    h, x0 = 1e-3, np.asarray(to_toroidal(_XYZ0))
-    X1 = run_points(m1, x0, h, np.array([0, 1]))[0][:, -1]
-    X2 = run_points(m2, x0, h, np.array([0, 1]))[0][:, -1]
-    a1, a2 = np.asarray(tor(x0)), np.asarray(other(x0))
-    assert np.max(np.abs(X1 - x0 - h * a1)) <= 10 * h * h * np.max(np.abs(a1))
-    assert np.max(np.abs(X2 - x0 - h * a2)) <= 10 * h * h * np.max(np.abs(a2))
-    assert np.max(np.abs(X2 - X1)) > 100 * h * h * np.max(np.abs(a2))
+    assert_reuses_kernel(m1, m2, tor, other, np.asarray(to_toroidal(_XYZ0)))
 
 
 def test_auto_picks_native_for_coils_and_says_why_not_otherwise(tor):

@@ -17,11 +17,12 @@ import pytest
 import vpforms as vp
 from vpforms import RESULTS
 from vpforms.backends import select_backend
-from vpforms.backends.native import build as nbuild
 from vpforms.backends.native.codegen import kernel_parts
-from vpforms.backends.native.runner import kernel_for, run_points
+from vpforms.backends.native.runner import run_points
 from vpforms.grids import cartesian_grid_field
 from vpforms.problems.coil_fields import make_stellarator
+
+from ._kernel_reuse import assert_reuses_kernel
 
 _OK, _WHY = vp.native.available()
 pytestmark = pytest.mark.skipif(not _OK, reason=f"native backend unavailable: {_WHY}")
@@ -123,17 +124,7 @@ def test_a_second_grid_of_the_same_shape_reuses_the_compiled_kernel(cart):
     m2 = vp.scheme(other, "SE+SE", recover=False)
     (s1, d1), (s2, d2) = kernel_parts(m1), kernel_parts(m2)
     assert s1 == s2 and d1.shape == d2.shape and not np.array_equal(d1, d2)
-    k1 = kernel_for(m1)
-    before = dict(nbuild.COUNTERS)
-    k2 = kernel_for(m2)
-    assert nbuild.COUNTERS["compiled"] == before["compiled"] and k2.lib is k1.lib
-    h, x0 = 1e-3, CART_X0[:3]
-    X1 = run_points(m1, x0, h, np.array([0, 1]))[0][:, -1]
-    X2 = run_points(m2, x0, h, np.array([0, 1]))[0][:, -1]
-    a1, a2 = np.asarray(cart(x0)), np.asarray(other(x0))
-    assert np.max(np.abs(X2 - x0 - h * a2)) <= 10 * h * h * np.max(np.abs(a2))
-    assert np.max(np.abs(X1 - x0 - h * a1)) <= 10 * h * h * np.max(np.abs(a1))
-    assert np.max(np.abs(X2 - X1)) > 100 * h * h * np.max(np.abs(a2))
+    assert_reuses_kernel(m1, m2, cart, other, CART_X0[:3])
 
 
 def test_auto_runs_spline_fields_natively_and_says_why_not_otherwise(cart):
