@@ -68,7 +68,7 @@ def tokamak_methods():
     runs before recovering — so that every compiled step is shared between (b) and (c)."""
     if not _TOKAMAK:
         f = get("tokamak").field
-        r1 = scheme(f, "DL+DL")
+        r1 = scheme(f, "DL+DL", fast=False)  # the engine form: the one that fails at folds (the default θ-stages do not)
         r2 = compose(r1, 2)
         r4 = compose(r2, 4)
         for label, m in (("DL+DL", r1), ("DL+DL order 2", r2), ("DL+DL order 4", r4)):

@@ -174,25 +174,35 @@ class JaxKernel:
 
     def _batch(self, idx, B, fill, x, status, n, rec, n_target, h, save_every, n_total, xs):
         """One batch of B lanes: the particles idx, padded with copies of idx[fill]."""
-        pad = np.concatenate([np.arange(idx.size), np.full(B - idx.size, fill, np.int64)])
-        st0 = status[idx]
-        xb, stb = jnp.asarray(x[idx][pad]), jnp.asarray(st0[pad], dtype=jnp.int32)
+        if idx[-1] - idx[0] == idx.size - 1:  # a range (a fixed chunk): views, no gather
+            idx = slice(int(idx[0]), int(idx[-1]) + 1)
+        x_i, st0, n_i = x[idx], status[idx], n[idx]
+        size = st0.size
+
+        def padded(a):
+            return a if size == B else np.concatenate([a, np.repeat(a[fill:fill + 1], B - size, axis=0)])
+
+        xb, stb = jnp.asarray(padded(x_i)), jnp.asarray(padded(st0), dtype=jnp.int32)
         flb, rcb = jnp.full(B, -1, jnp.int32), jnp.zeros(B, jnp.int32)
-        n_i = n[idx]
         go = st0 == RESULTS.successful
-        startb = jnp.asarray(n_i[pad], dtype=jnp.int32)
+        startb = jnp.asarray(padded(n_i), dtype=jnp.int32)
         hj, stop = jnp.asarray(h), jnp.asarray(n_target)
         n0 = int(n_i[go & (n_i < n_target)].min()) // self.k * self.k
+        if save_every:  # the rows whose saves this batch writes: its live particles
+            rows = np.arange(idx.start, idx.stop) if isinstance(idx, slice) else idx
+            every = bool(go.all())
+            rows, n_go = (rows, n_i) if every else (rows[go], n_i[go])
         while n0 < n_target:
             xb, stb, flb, saved, rcb = self._kernel(xb, stb, flb, jnp.asarray(n0), hj, stop, rcb, startb)
             if save_every:
-                self._save(xs, idx[go], n_i[go], np.asarray(saved)[: idx.size][go], n0, n_target, n_total)
+                sv = np.asarray(saved)[:size]
+                self._save(xs, rows, n_go, sv if every else sv[go], n0, n_target, n_total)
             n0 += self.k * self.blocks
-        stb, flb = np.asarray(stb)[: idx.size], np.asarray(flb)[: idx.size]
-        x[idx] = np.asarray(xb)[: idx.size]
+        stb, flb = np.asarray(stb)[:size], np.asarray(flb)[:size]
+        x[idx] = np.asarray(xb)[:size]
         status[idx] = stb
         n[idx] = np.where(~go, n_i, np.where(stb == RESULTS.successful, np.maximum(n_i, n_target), flb))
-        rec[idx] += np.asarray(rcb)[: idx.size]
+        rec[idx] += np.asarray(rcb)[:size]
 
     def _save(self, xs, idx, n_i, saved, n0, n_target, n_total):
         """The block states of one kernel call into their slots: block b ends at step e = n0 +
