@@ -91,8 +91,11 @@ def main() -> int:
                      times_to_trace=n_save, rtol=tol, atol=tol, timestep=1e-2, progress=False)
         return np.asarray(tr.times), np.asarray(tr.trajectories)[:, :, :3]
 
+    def B_at(y, batch=4096):  # in batches: a long run's saved points at once would need ~10² GB
+        return np.concatenate([np.asarray(Bv(jnp.asarray(y[i:i + batch]))) for i in range(0, len(y), batch)])
+
     def sections(ts, Y, transits):
-        out = [crossings(ts, y, np.asarray(Bv(jnp.asarray(y))), nfp, transits * nfp) for y in Y]
+        out = [crossings(ts, y, B_at(y), nfp, transits * nfp) for y in Y]
         n = min(len(r) for r, _ in out)
         return np.stack([r[:n] for r, _ in out], 1), np.stack([z[:n] for _, z in out], 1)
 
