@@ -107,11 +107,29 @@ def run_vpforms(x_R, ref, settings, n_acc_tr, transits, coils):
     return rows
 
 
-def run_peer(tool, python, work, log, ref, n_acc_tr, transits):
-    res, err = _run_peer(tool, python, work, log)
-    print(log[-1], flush=True)
-    if res is None:
-        return None, err
+def run_peers(tools, venvs, work):
+    """({tool: its JSON result} of the peers in ``tools`` that ran, {tool: why not} of the others):
+    each in its own environment ``<venvs>/<tool>`` (``bench_peers._run_peer``), one after the other."""
+    results, failures, log = {}, {}, []
+    for tool in ("desc", "essos"):
+        if tool not in tools:
+            continue
+        py = os.path.join(venvs, tool, "bin", "python")
+        if not os.path.exists(py):
+            failures[tool] = f"no virtual environment at {os.path.dirname(os.path.dirname(py))} (skipped)"
+            continue
+        res, err = _run_peer(tool, py, work, log)
+        print(log[-1], flush=True)
+        if res is None:
+            failures[tool] = f"the run failed: {err.splitlines()[-1] if err else '?'}"
+        else:
+            results[tool] = res
+    return results, failures
+
+
+def peer_row(res, ref, n_acc_tr, transits):
+    """A peer's table row: its error, and its wall time for ``transits`` (extrapolated from the
+    marginal cost where it ran fewer)."""
     run = res["runs"][0]
     e, k = _error(run["R"], run["Z"], *ref, n_acc_tr * NFP)
     lines = run["lines"]
@@ -120,12 +138,10 @@ def run_peer(tool, python, work, log, ref, n_acc_tr, transits):
     else:  # marginal cost per line-transit after the fixed cost, times the issue's size
         per = (run["t_acc"] - run["t_short"]) / (run["transits"] - run["short_transits"])
         wall, extra = run["t_short"] + per * (transits - run["short_transits"]), True
-    fixed = run["t_short"]
     size = f"{lines} × {transits}" + (f" (measured: {lines} × {run['transits']} in {run['t_acc']:.0f} s)"
                                       if extra else "")
-    row = dict(tool=res["tool"], setting=f"{res['version']}: {run['label']}", error=e, points=k, wall=wall,
-               fixed=fixed, size=size, backend="CPU", load=res["loadavg_end"][0], extrapolated=extra)
-    return row, None
+    return dict(tool=res["tool"], setting=f"{res['version']}: {run['label']}", error=e, points=k, wall=wall,
+                fixed=run["t_short"], size=size, backend="CPU", load=res["loadavg_end"][0], extrapolated=extra)
 
 
 def main(argv=None) -> int:
@@ -173,21 +189,9 @@ def main(argv=None) -> int:
     print(f"reference {t_ref:.0f} s", flush=True)
 
     tools = args.tools.split(",")
-    rows, log, failures = [], [], {}
-    if "vpforms" in tools:
-        rows += run_vpforms(x_R, ref, settings, n_acc_tr, transits, coils)
-    for tool in ("desc", "essos"):
-        if tool not in tools:
-            continue
-        py = os.path.join(args.venvs, tool, "bin", "python")
-        if not os.path.exists(py):
-            failures[tool] = f"no virtual environment at {os.path.dirname(os.path.dirname(py))} (skipped)"
-            continue
-        row, err = run_peer(tool, py, work, log, ref, n_acc_tr, transits)
-        if row is None:
-            failures[tool] = f"the run failed: {err.splitlines()[-1] if err else '?'}"
-        else:
-            rows.append(row)
+    rows = run_vpforms(x_R, ref, settings, n_acc_tr, transits, coils) if "vpforms" in tools else []
+    results, failures = run_peers(tools, args.venvs, work)
+    rows += [peer_row(res, ref, n_acc_tr, transits) for res in results.values()]
 
     table = [f"| tool | settings | error at {n_acc_tr} transits, {n_lines} lines (m) | size (lines × transits) | wall time (s) | "
              "compile / fixed cost per call (s) | load |", "|---|---|---:|---|---:|---:|---:|"]

@@ -34,8 +34,8 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 sys.path.insert(0, os.path.join(HERE, "peers"))
 from _bench import machine, parser, write_results  # noqa: E402
-from bench_peers import R_AXIS, RK_TOL, _fit_residual, _run_peer  # noqa: E402
-from bench_peers_issue_size import BOX_R, BOX_Z, NFP, _per_line  # noqa: E402
+from bench_peers import R_AXIS, RK_TOL, _fit_residual  # noqa: E402
+from bench_peers_issue_size import BOX_R, BOX_Z, NFP, _per_line, run_peers  # noqa: E402
 
 
 def iota(R, Z):
@@ -118,22 +118,12 @@ def main(argv=None) -> int:
                    "check_points": np.c_[Rc * np.cos(ph), Rc * np.sin(ph), Zc].tolist(), "own_reference": False}, fh)
 
     tools = args.tools.split(",")
-    got, failures, log = {}, {}, []
+    got = {}
     if "vpforms" in tools:
         out, label = run_vpforms(x_R, long_i, iota_tr, long_tr, grid, order, h)
         got["vpforms"] = (label, out["iota"][:2], out["long"][:2], out["iota"][2] + out["long"][2])
-    for tool in ("desc", "essos"):
-        if tool not in tools:
-            continue
-        py = os.path.join(args.venvs, tool, "bin", "python")
-        if not os.path.exists(py):
-            failures[tool] = f"no virtual environment at {os.path.dirname(os.path.dirname(py))} (skipped)"
-            continue
-        res, err = _run_peer(tool, py, work, log)
-        print(log[-1], flush=True)
-        if res is None:
-            failures[tool] = f"the run failed: {err.splitlines()[-1] if err else '?'}"
-            continue
+    results, failures = run_peers(tools, args.venvs, work)
+    for res in results.values():
         run, lr = res["runs"]
         got[res["tool"]] = (f"{res['version']}: {run['label']}", (run["R"], run["Z"]), (lr["R"], lr["Z"]),
                             run["t_acc"] + lr["t"])
