@@ -97,6 +97,8 @@ def main(argv=None) -> int:
     ap.add_argument("--tools", default="vpforms,desc,essos", help="comma-separated subset to run")
     ap.add_argument("--iota-transits", type=int, default=200)
     ap.add_argument("--long-transits", type=int, default=10000)
+    ap.add_argument("--reuse", default="", help="comma-separated tools not re-run: their <work>/<tool>.json "
+                    "of an earlier run (same --work) is re-analysed, and the table says so")
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
     from vpforms.coils import l2_stellarator, write_makegrid
@@ -118,11 +120,26 @@ def main(argv=None) -> int:
                    "check_points": np.c_[Rc * np.cos(ph), Rc * np.sin(ph), Zc].tolist(), "own_reference": False}, fh)
 
     tools = args.tools.split(",")
-    got = {}
+    reuse = [t for t in args.reuse.split(",") if t and t not in tools]
+    got, reused = {}, []
     if "vpforms" in tools:
         out, label = run_vpforms(x_R, long_i, iota_tr, long_tr, grid, order, h)
         got["vpforms"] = (label, out["iota"][:2], out["long"][:2], out["iota"][2] + out["long"][2])
+        with open(os.path.join(work, "vpforms.json"), "w") as fh:  # for a later --reuse vpforms
+            json.dump({"label": label, **{k: [np.asarray(v[0]).tolist(), np.asarray(v[1]).tolist(), v[2]]
+                                          for k, v in out.items()}}, fh)
+    if "vpforms" in reuse:
+        with open(os.path.join(work, "vpforms.json")) as fh:
+            v = json.load(fh)
+        got["vpforms"] = (v["label"], tuple(v["iota"][:2]), tuple(v["long"][:2]), v["iota"][2] + v["long"][2])
+        reused.append("vpforms")
     results, failures = run_peers(tools, args.venvs, work)
+    for tool in reuse:
+        path = os.path.join(work, f"{tool}.json")
+        if tool != "vpforms" and os.path.exists(path):
+            with open(path) as fh:
+                results[tool] = json.load(fh)
+            reused.append(tool)
     for res in results.values():
         run, lr = res["runs"]
         got[res["tool"]] = (f"{res['version']}: {run['label']}", (run["R"], run["Z"]), (lr["R"], lr["Z"]),
@@ -153,6 +170,8 @@ def main(argv=None) -> int:
         "## ι at the same points", "", *t1, "",
         "## Surface thickness", "", *t2, "",
         *([f"* {t}: {why}" for t, why in failures.items()] + [""] if failures else []),
+        *([f"* Re-analysed from an earlier run of this script (same work folder, not re-run): "
+           f"{', '.join(reused)}.", ""] if reused else []),
         machine("bench_peers_surfaces.py", time.perf_counter() - t0, smoke), ""])
     return write_results(args.out, text)
 
