@@ -4,8 +4,8 @@ The problem of ``bench_peers.py`` (vpforms' l = 2, m = 5 stellarator coils writt
 that every tool reads; sections at φ = 2πk/5), at the issue's size: 100 field lines from
 (R, Z) = (R_axis + 0.02 … 0.12 m, 0) on φ = 0, 1000 toroidal transits. For every tool and setting:
 
-* **error**: the max over all 100 lines of the distance in (R, Z) of the first 100 section points
-  (20 transits) from scipy DOP853 (rtol 1e-12) on the coils' own Biot–Savart B;
+* **error**: the max over all 100 lines of the distance in (R, Z) of the first 500 section points
+  (100 transits, the issue's horizon) from scipy DOP853 (rtol 1e-12) on the coils' own Biot–Savart B;
 * **wall time** of 100 lines × 1000 transits, with the compile / fixed cost per call apart.
 
 How each tool runs (one at a time, each in its own process and virtual environment for the peers,
@@ -13,14 +13,18 @@ How each tool runs (one at a time, each in its own process and virtual environme
 
 * vpforms (this process, native backend): the coils' A splined on an (R, φ, Z) grid (several grids:
   the spline's error is what limits the accuracy), B = ∇×A, SE+SE ∘ order 4, ``toroidal_section``.
-  A 20-transit call of the 100 lines gives the error, the compile time (first call of a method) and
-  each line's time per transit; the 1000-transit call then takes ceil(1000 · T_max · 1.02 / h) steps
+  A 2-line call of one transit gives the fixed cost (the first call of a method: the kernel's compilation
+  or its load from the cache); a 100-transit call of the 100 lines gives the error and each line's time
+  per transit; the 1000-transit call then takes ceil(1000 · T_max · 1.02 / h) steps
   (T_max: the slowest line's time per transit), so every line makes ≥ 1000 transits.
+* vpforms with **φ as the time** (native, ``run_vpforms_phi_time``): the φ-time field of the same
+  spline of A with K splined on a (v, φ, Z) grid, the φ-exact SE+SE composed, n steps per field
+  period: the section points are step boundaries (``save_every=n``), mapped back to (R, Z) by U.
 * DESC (``peers/run_desc.py``): Biot–Savart of the polylines at every stage, Tsit5 in φ, rtol = atol
   = 1e-8; one 2-transit call (its fixed cost: DESC recompiles per call) and the 1000-transit call.
 * ESSOS (``peers/run_essos.py``): Fourier-fitted coils, Dopri8, rtol = atol = 1e-8; at its measured
   cost 1000 transits of 100 lines take hours on 2 cores, so it runs 2 and ``--essos-transits``
-  (default 20) transits and its 1000-transit time is **extrapolated** linearly from the marginal
+  (default 100) transits and its 1000-transit time is **extrapolated** linearly from the marginal
   cost (said so in the table).
 
     PYTHONPATH=src python benchmarks/bench_peers_issue_size.py [--tools vpforms,desc,essos] [--smoke]
@@ -84,12 +88,14 @@ def run_vpforms(x_R, ref, settings, n_acc_tr, transits, coils):
         for order, h in [(o, h) for g, o, h in settings if g == grid]:
             m = vpforms.compose(vpforms.scheme(field, "SE+SE", recover=False), order=order)
             n20 = int(np.ceil(n_acc_tr * t_guess / h))
+            # the fixed cost: a 2-line call of one transit, the first of each method (the kernel's
+            # compilation, or its load from the on-disk cache)
             t = time.perf_counter()
-            s = toroidal_section(m, x0, h, n20, phi=0.0, nfp=NFP, direction=1, progress=False)
-            t20 = time.perf_counter() - t
-            # the kernel's compilation (or its load from the cache) is in the first call of each order
+            toroidal_section(m, x0[:2], h, int(t_guess / h), phi=0.0, nfp=NFP, direction=1, progress=False)
+            t_fixed = time.perf_counter() - t
             first = (order not in compiled)
             compiled.add(order)
+            s = toroidal_section(m, x0, h, n20, phi=0.0, nfp=NFP, direction=1, progress=False)
             R, Z, T = _per_line(s, x_R.size, n_acc_tr * NFP)
             err, k = _error(R, Z, *ref, n_acc_tr * NFP)
             n = int(np.ceil(transits * float(np.max(T)) * 1.02 / h))
@@ -100,10 +106,64 @@ def run_vpforms(x_R, ref, settings, n_acc_tr, transits, coils):
             least = float(np.min(np.asarray(sec.counts)) / NFP)
             rows.append(dict(tool="vpforms", setting=f"{grid[0]}×{grid[1]}×{grid[2]} spline (B error "
                              f"{spline_err:.1e}, built in {t_spline:.0f} s), SE+SE ∘ order {order}, h = {h:g}",
-                             error=err, points=k, wall=wall, fixed=(t20 if first else None),
+                             error=err, points=k, wall=wall, fixed=(t_fixed if first else None),
                              size=f"{x_R.size} × {transits} ({n:,} steps; ≥ {least:.0f} transits each)",
                              backend=sec.backend, load=os.getloadavg()[0], extrapolated=False))
             print(rows[-1], flush=True)
+    return rows
+
+
+def run_vpforms_phi_time(x_R, ref, settings, n_acc_tr, transits, coils):
+    """The vpforms rows with φ as the time, one per setting (A grid, K grid, order, n steps per field
+    period): the φ-time field of the spline of A with K splined on the K grid
+    (``phi_time_field(..., grid=)``), the φ-exact SE+SE composed to the order; the section points are
+    every n-th step (``save_every=n``), mapped back to (R, Z) by U (Newton, vectorised; timed)."""
+    import vpforms
+    from vpforms.phitime import (
+        from_phi_time,
+        phi_time_field,
+        phi_time_scheme,
+        to_phi_time,
+    )
+    from vpforms.problems.coil_fields import spline_coil_field
+
+    x0 = np.c_[x_R**2 / 2, np.zeros_like(x_R), np.zeros_like(x_R)]
+    rows, compiled, fields = [], set(), {}
+    for grid, kgrid, order, n in settings:
+        t = time.perf_counter()
+        if grid not in fields:
+            fields[grid] = spline_coil_field(coils, BOX_R, BOX_Z, n_R=grid[0], n_phi=grid[1], n_Z=grid[2],
+                                             name="peers")
+        field, spline_err = fields[grid]
+        pf = phi_time_field(field, grid=kgrid, name="peers φ-time")  # the box: the spline's grid
+        t_build = time.perf_counter() - t
+        m = phi_time_scheme(pf, "SE+SE", order=order)
+        y0 = np.asarray(to_phi_time(pf, x0))
+        h = 2 * np.pi / NFP / n
+
+        def sections(n_tr):
+            sol = vpforms.integrate(m, y0, h, n * NFP * n_tr, save_every=n, backend="native", progress=False)
+            x = np.asarray(from_phi_time(pf, sol.xs[:, 1:]))  # (lines, sections, 3) → (R, Z) (sections, lines)
+            return np.sqrt(2 * x[..., 0]).T, x[..., 2].T, sol
+
+        t = time.perf_counter()  # the fixed cost, as run_vpforms's
+        vpforms.integrate(m, y0[:2], h, n * NFP, save_every=n, backend="native", progress=False)
+        t_fixed = time.perf_counter() - t
+        first = (order, kgrid) not in compiled
+        compiled.add((order, kgrid))
+        R, Z, _ = sections(n_acc_tr)
+        err, k = _error(R, Z, *ref, n_acc_tr * NFP)
+        t = time.perf_counter()
+        R, Z, sol = sections(transits)
+        wall = time.perf_counter() - t
+        rows.append(dict(tool="vpforms", setting=f"φ as the time: {grid[0]}×{grid[1]}×{grid[2]} spline of A (B error "
+                         f"{spline_err:.1e}), K on a {kgrid[0]}×{kgrid[1]}×{kgrid[2]} (v, φ, Z) grid (b error "
+                         f"{pf.phi_time_spline_error:.1e}; built in {t_build:.0f} s), φ-exact SE+SE ∘ order {order}, "
+                         f"{n} steps per field period ({n * NFP} per transit)",
+                         error=err, points=k, wall=wall, fixed=(t_fixed if first else None),
+                         size=f"{x_R.size} × {transits} ({n * NFP * transits:,} steps; {sol.n_failed} failed)",
+                         backend="native", load=os.getloadavg()[0], extrapolated=False))
+        print(rows[-1], flush=True)
     return rows
 
 
@@ -150,7 +210,7 @@ def main(argv=None) -> int:
                     help="folder holding the peers' virtual environments <venvs>/desc, <venvs>/essos")
     ap.add_argument("--work", default=None, help="work folder (default: a temporary one)")
     ap.add_argument("--tools", default="vpforms,desc,essos", help="comma-separated subset to run")
-    ap.add_argument("--essos-transits", type=int, default=20, help="transits ESSOS runs (then extrapolated)")
+    ap.add_argument("--essos-transits", type=int, default=100, help="transits ESSOS runs (then extrapolated)")
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
     import jax
@@ -158,12 +218,16 @@ def main(argv=None) -> int:
     from vpforms.coils import l2_stellarator, write_makegrid
 
     smoke = args.smoke
-    n_lines, transits, n_acc_tr = (4, 4, 2) if smoke else (100, 1000, 20)
+    n_lines, transits, n_acc_tr = (4, 4, 2) if smoke else (100, 1000, 100)
     # (grid, order, h): the spline's error limits the accuracy (order 4 gains nothing below h = 0.025
     # on the 40×32×40 grid), so the finer grid gets the smaller steps and order 6
     fine = (96, 64, 96)
-    settings = ([((12, 8, 12), 2, 0.05)] if smoke else
-                [((40, 32, 40), 4, 0.05), (fine, 4, 0.025), (fine, 6, 0.05), (fine, 6, 0.025)])
+    settings = ([((12, 8, 12), 2, 0.05)] if smoke else [(fine, 4, 0.025), (fine, 6, 0.025)])
+    # φ as the time: (A grid, K grid, order, steps per field period); K's error is set by its φ
+    # resolution (K has more φ structure than A: 32 → 64 → 128 nodes per period gave b errors
+    # 9.4e-4, 1.1e-4, 6.3e-5 on the 40×32×40 A), so the K grid is fine in φ
+    phi_settings = ([((12, 8, 12), (8, 16, 8), 2, 4)] if smoke else
+                    [(fine, (48, 256, 48), 4, 32), (fine, (48, 256, 48), 6, 16), (fine, (48, 256, 48), 6, 24)])
     work = args.work or tempfile.mkdtemp(prefix="vpforms-peers-size-")
     os.makedirs(work, exist_ok=True)
     coils = l2_stellarator()
@@ -190,6 +254,8 @@ def main(argv=None) -> int:
 
     tools = args.tools.split(",")
     rows = run_vpforms(x_R, ref, settings, n_acc_tr, transits, coils) if "vpforms" in tools else []
+    if "vpforms" in tools:
+        rows += run_vpforms_phi_time(x_R, ref, phi_settings, n_acc_tr, transits, coils)
     results, failures = run_peers(tools, args.venvs, work)
     rows += [peer_row(res, ref, n_acc_tr, transits) for res in results.values()]
 
@@ -207,7 +273,7 @@ def main(argv=None) -> int:
          f"the (R, Z) distance of the first {n_acc_tr * NFP} section points (φ = 2πk/5) from scipy DOP853 "
          f"(rtol 1e-12) on the coils' Biot–Savart B ({t_ref:.0f} s). vpforms: native, its own fixed-step "
          "methods on the exactly divergence-free curl of a spline of A; the compile column is its first "
-         f"({n_acc_tr}-transit) call of each method, with the kernel's gcc compilation or, when an earlier run "
+         "(2-line, 1-transit) call of each method, with the kernel's gcc compilation or, when an earlier run "
          "built it, its load from the on-disk cache; '—' where this run had already loaded it. DESC: Biot–Savart of the polylines at every Tsit5 stage, one call per size (it recompiles "
          "per call: the fixed cost is its 2-transit call). ESSOS: its Fourier-fitted coils (7.9e-4 from the "
          "polylines' B, `results_peers.md`), Dopri8; 1000 transits are extrapolated from its marginal cost. "

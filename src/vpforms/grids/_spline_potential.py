@@ -40,6 +40,11 @@ class SplinePotential(VectorPotential):
     """
 
     exact_gauge = True
+    #: per component None (the spline), or the coefficients (a₀, a₁, a₂, a₃) of an affine function
+    #: a₀ + a₁x₁ + a₂x₂ + a₃x₃ that the component *is* (its spline interpolates it, to rounding):
+    #: then :meth:`components` and :meth:`antiderivative` use the affine function itself, exactly
+    #: and without spline evaluations (the φ-time potential (0, K, −v), :mod:`vpforms.phitime`)
+    affine: tuple = (None, None, None)
 
     def __init__(self, splines: Sequence[TensorSpline], description: str = ""):
         sp = tuple(splines)
@@ -56,14 +61,17 @@ class SplinePotential(VectorPotential):
 
     # -- the VectorPotential contract -------------------------------------------------------
     def components(self):
-        return self.splines
+        return tuple(s if a is None else _affine_callable(a) for s, a in zip(self.splines, self.affine))
 
     def antiderivative(self, k: int, c: float, n: int = DEFAULT_N):
-        """χ_k = ∫_c^{x_k} A_k dx_k, exact (a spline; on a periodic axis μ·(x_k − c) + Q);
-        ``n`` is ignored. Raises ValueError if c is off the grid on a non-periodic axis."""
+        """χ_k = ∫_c^{x_k} A_k dx_k, exact (a spline; on a periodic axis μ·(x_k − c) + Q; an
+        :attr:`affine` component's own antiderivative); ``n`` is ignored. Raises ValueError if c is
+        off the grid on a non-periodic axis."""
         key = (int(k), float(c))
         if key not in self._anti:
-            self._anti[key] = self.splines[k].antiderivative(k, float(c))
+            a = self.affine[k]
+            self._anti[key] = (self.splines[k].antiderivative(k, float(c)) if a is None
+                               else _affine_callable(a, k, float(c)))
         return self._anti[key]
 
     def __call__(self, x: Any) -> jax.Array:
@@ -169,6 +177,30 @@ class SplinePotential(VectorPotential):
                     per[a] = A.periods[a]
         values = sample_on_grid(A, grids)
         return cls.from_samples(grids, values, per, degree, description)
+
+
+def affine_value(a: Sequence[float], x: Sequence[Any]) -> Any:
+    """a₀ + a₁x₁ + a₂x₂ + a₃x₃ (JAX arrays or SymPy symbols; zero terms left out)."""
+    return sum((a[i + 1] * x[i] for i in range(3) if a[i + 1]), a[0])
+
+
+def affine_antiderivative(a: Sequence[float], k: int, x: Sequence[Any], c: Any) -> Any:
+    """∫_c^{x_k} (a₀ + a·x) dx_k = (a₀ + Σ_{i≠k} a_i x_i)(x_k − c) + a_k (x_k² − c²)/2 (JAX or
+    SymPy; the one formula of the JAX potential and of the generated C)."""
+    rest = sum((a[i + 1] * x[i] for i in range(3) if i != k and a[i + 1]), a[0])
+    return rest * (x[k] - c) + (a[k + 1] * (x[k] ** 2 - c**2) / 2 if a[k + 1] else 0)
+
+
+def _affine_callable(a: Sequence[float], k: int | None = None, c: float = 0.0) -> Callable:
+    """The affine component a (k None) or its antiderivative along axis k from c, as f(x1, x2, x3)."""
+    a = tuple(float(t) for t in a)
+
+    def f(x1, x2, x3):
+        x = jnp.broadcast_arrays(*(jnp.asarray(t, float) for t in (x1, x2, x3)))
+        out = affine_value(a, x) if k is None else affine_antiderivative(a, k, x, c)
+        return out + jnp.zeros_like(x[0])
+
+    return f
 
 
 @jax.jit

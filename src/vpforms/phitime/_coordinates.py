@@ -47,14 +47,16 @@ class PhiTimeCoordinates:
 
     Attributes: ``A`` the (u, φ, Z) potential; ``box`` its (u, φ, Z) box; ``ybox`` the (v, φ, Z)
     box; ``sign`` s = sign B^φ; ``u_ref``; ``gauge`` how A_u was removed ("A_u = 0" or "quadrature");
-    ``inverse`` "closed form" or "newton". Scalar callables :meth:`V` (u, φ, Z) ↦ v, :meth:`U`
-    (v, φ, Z) ↦ u, :meth:`K`, :meth:`Aprime` (A'_φ, A'_Z), :meth:`B_phi` (a² = B^φ); point maps
-    :meth:`to_y`, :meth:`to_x` (shape (3,), jit/vmap-able).
+    ``inverse`` "closed form" or "newton"; ``level_v`` whether the residual gauge χ₀(φ, Z) made
+    v(u_ref, φ, Z) = 0 (``level_v`` "yes", or "auto": where A_Z(u_ref, φ, Z) is not constant on the
+    check grid; default "no", the v of the closed-form path of :mod:`._symbolic`). Scalar callables
+    :meth:`V` (u, φ, Z) ↦ v, :meth:`U` (v, φ, Z) ↦ u, :meth:`K`, :meth:`Aprime` (A'_φ, A'_Z),
+    :meth:`B_phi` (a² = B^φ); point maps :meth:`to_y`, :meth:`to_x` (shape (3,), jit/vmap-able).
     """
 
     def __init__(self, A: VectorPotential, box: Any, *, u_ref: float | None = None,
-                 inverse: Scalar | None = None, a_u: str = "auto", margin: float = 0.02,
-                 n_check: int = 17, quadrature_n: int = DEFAULT_N, newton_max_iter: int = 80):
+                 inverse: Scalar | None = None, a_u: str = "auto", level_v: str = "no",
+                 margin: float = 0.02, n_check: int = 17, quadrature_n: int = DEFAULT_N, newton_max_iter: int = 80):
         if not isinstance(A, VectorPotential):
             raise TypeError("phi-time coordinates need a (u, φ, Z) VectorPotential, e.g. "
                             "vpforms.toroidal.ToroidalPotential(A_cartesian, nfp)")
@@ -65,6 +67,8 @@ class PhiTimeCoordinates:
             raise ValueError(f"the u interval must satisfy u_min > 0 (u = R²/2); got {box[0]!r}")
         if a_u not in ("auto", "zero", "quadrature"):
             raise ValueError(f"a_u must be 'auto', 'zero' or 'quadrature', not {a_u!r}")
+        if level_v not in ("auto", "yes", "no"):
+            raise ValueError(f"level_v must be 'auto', 'yes' or 'no', not {level_v!r}")
         if not 0 <= margin < 0.5:
             raise ValueError(f"margin must be in [0, 0.5); got {margin!r}")
         self.A, self.box = A, box
@@ -95,6 +99,30 @@ class PhiTimeCoordinates:
                 return (jnp.asarray(Aphi(u, phi, Z), float) - dphi,
                         jnp.asarray(AZ(u, phi, Z), float) - dZ)
 
+        # --- 1b. the residual gauge χ₀(φ, Z) = ∫_{Z_mid}^Z A_Z(u_ref, φ, Z') dZ' -----------------
+        # A'_Z(u_ref, ·) = A_Z(u_ref, ·) (χ vanishes on u = u_ref); subtracting ∇χ₀ makes
+        # v(u_ref, φ, Z) = 0, so v is the toroidal flux from the surface u = u_ref and the image of the
+        # u interval holds the largest (v, φ, Z) rectangle (a ragged v(u_ref, ·) of A's own gauge
+        # — Biot–Savart's, a spline's — would cut it down)
+        if level_v == "auto":
+            ref = grid.copy()
+            ref[:, 0] = self.u_ref
+            vals = np.asarray(jax.jit(jax.vmap(lambda p: Aprime(p[0], p[1], p[2])[1]))(jnp.asarray(ref)))
+            spread, scale = float(np.ptp(vals)), float(np.max(np.abs(vals))) or 1.0
+            level_v = "no" if spread <= 1e-12 * scale else "yes"
+        self.level_v = level_v == "yes"
+        if self.level_v:
+            z_mid = 0.5 * (box[2][0] + box[2][1])
+            chi0 = A.antiderivative(2, z_mid, quadrature_n)
+            dchi0 = jax.grad(lambda phi, Z: chi0(self.u_ref, phi, Z), argnums=(0, 1))
+            Aprime_1 = Aprime
+
+            def Aprime(u, phi, Z):
+                a_phi, a_Z = Aprime_1(u, phi, Z)
+                d_phi, d_Z = dchi0(phi, Z)
+                return a_phi - d_phi, a_Z - d_Z
+
+            self.gauge += "; v levelled on u = u_ref by χ₀ = ∫_{Z_mid}^Z A_Z(u_ref, φ, Z') dZ'"
         self._Aprime = Aprime
 
         def a2(u, phi, Z):  # B^φ = a² = −∂_u A'_Z

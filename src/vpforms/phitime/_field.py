@@ -17,6 +17,7 @@ from .._vecpot import CallablePotential, VectorPotential
 from ..fields import Field
 from ..toroidal import ToroidalPotential
 from ._coordinates import PhiTimeCoordinates, PhiTimePotential
+from ._spline import spline_phi_time_field
 from ._symbolic import NoClosedForm, is_sympy_potential, symbolic_phi_time_field
 
 __all__ = ["from_phi_time", "phi_time_field", "to_phi_time"]
@@ -24,10 +25,11 @@ __all__ = ["from_phi_time", "phi_time_field", "to_phi_time"]
 Scalar = Callable[..., Any]
 
 
-def phi_time_field(A: VectorPotential | Callable[[Any], Any], box: Any, *, nfp: int | None = None,
+def phi_time_field(A: VectorPotential | Callable[[Any], Any], box: Any = None, *, nfp: int | None = None,
                    u_ref: float | None = None, inverse: Scalar | None = None, a_u: str = "auto",
                    margin: float = 0.02, n_check: int = 17, name: str = "phi-time field",
-                   symbols: Sequence[sp.Symbol] | None = None, **kw: Any) -> Field:
+                   symbols: Sequence[sp.Symbol] | None = None, grid: Sequence[int] | None = None,
+                   degree: int = 3, level_v: str | None = None, **kw: Any) -> Field:
     """The field-line flow of ∇×A with φ as the time, as a :class:`~vpforms.Field` in (v, φ, Z).
 
     ``A``: a (u, φ, Z) :class:`~vpforms._vecpot.VectorPotential` (e.g.
@@ -40,6 +42,21 @@ def phi_time_field(A: VectorPotential | Callable[[Any], Any], box: Any, *, nfp: 
     Newton; ``margin``: the fraction of the v range dropped at each end of the (v, φ, Z) box.
     Further keywords go to :meth:`vpforms.Field.from_vector_potential` (``origin`` defaults to
     (v_mid, φ_min, Z_mid) of the (v, φ, Z) box).
+
+    ``A`` may also be a :class:`~vpforms.Field` in (u, φ, Z) made from one vector potential (e.g.
+    :func:`vpforms.toroidal.toroidal_field` of a spline of A, or ``spline_coil_field``): its potential
+    is used.
+
+    ``level_v`` ("auto", "yes", "no"; default "auto" with a ``grid``, else "no"): subtract the residual
+    gauge χ₀(φ, Z) = ∫_{Z_mid}^Z A_Z(u_ref, φ, Z') dZ' so that v = 0 on the surface u = u_ref. A's own
+    gauge (Biot–Savart's, a spline's) can make v(u, φ, Z) so ragged in (φ, Z) that the largest (v, φ, Z)
+    rectangle in the image of the box misses lines inside it; levelled, v is the toroidal flux from
+    u = u_ref and the rectangle is nearly the whole box.
+
+    ``grid`` = (n_v, n_φ, n_Z): K is sampled on that tensor grid of the (v, φ, Z) box and splined
+    (degree ``degree``), so the field is a spline field that **runs natively** whatever A is (a spline
+    of A, coils): :mod:`vpforms.phitime._spline`. It is still exactly divergence free; it differs
+    from the exact φ-time field by the interpolation error of K, ``field.phi_time_spline_error``.
 
     ``A`` may also be three **SymPy expressions** (A_u, A_φ, A_Z) in ``symbols`` = (u, φ, Z) (default:
     its free symbols named u, phi, Z; :func:`toroidal_potential_exprs` converts a Cartesian one;
@@ -54,16 +71,28 @@ def phi_time_field(A: VectorPotential | Callable[[Any], Any], box: Any, *, nfp: 
     :func:`from_phi_time`) and, for a callable A, ``inside`` (a step that leaves the image of the u
     interval stops with ``RESULTS.left_domain``; a closed-form U is defined beyond it).
     """
+    if isinstance(A, Field):
+        As = [a for a in A._vector_potentials if isinstance(a, VectorPotential)]
+        if len(As) != 1:
+            raise TypeError(f"the field {A.name!r} is not made from one (u, φ, Z) vector potential "
+                            "(Field.from_vector_potential / toroidal_field); pass A itself")
+        A = As[0]
+    if box is None:  # a spline of A: its grid's (u, φ, Z) box
+        if not hasattr(A, "grid_box"):
+            raise TypeError("give the (u, φ, Z) box (vpforms.toroidal.box_from_cylindrical); only a "
+                            "spline of A has a default box (its grid's)")
+        box = A.grid_box
     if is_sympy_potential(A):
         syms = _toroidal_symbols(A, symbols)
         period = 2 * np.pi / (1 if nfp is None else int(nfp))
-        try:
-            return symbolic_phi_time_field(tuple(A), syms, box, period=period, u_ref=u_ref,
-                                           margin=margin, n_check=n_check, name=name, **kw)
-        except NoClosedForm as why:
-            warnings.warn(f"φ-time field {name!r}: no closed form ({why}); it is built from the "
-                          "lambdified potential with U by Newton and runs on the JAX backend only",
-                          stacklevel=2)
+        if grid is None:  # a grid asks for the spline path, which steps the lambdified potential
+            try:
+                return symbolic_phi_time_field(tuple(A), syms, box, period=period, u_ref=u_ref,
+                                               margin=margin, n_check=n_check, name=name, **kw)
+            except NoClosedForm as why:
+                warnings.warn(f"φ-time field {name!r}: no closed form ({why}); it is built from the "
+                              "lambdified potential with U by Newton and runs on the JAX backend only",
+                              stacklevel=2)
         A = CallablePotential([_lambdify_scalar(sp.sympify(a), syms) for a in A], (None, period, None))
         nfp = None
     elif symbols is not None:
@@ -72,8 +101,11 @@ def phi_time_field(A: VectorPotential | Callable[[Any], Any], box: Any, *, nfp: 
         A = ToroidalPotential(A, 1 if nfp is None else nfp)
     elif nfp is not None:
         raise ValueError("nfp is the potential's (ToroidalPotential(A, nfp)); do not pass it again")
-    coords = PhiTimeCoordinates(A, box, u_ref=u_ref, inverse=inverse, a_u=a_u, margin=margin,
+    level_v = ("auto" if grid is not None else "no") if level_v is None else level_v
+    coords = PhiTimeCoordinates(A, box, u_ref=u_ref, inverse=inverse, a_u=a_u, level_v=level_v, margin=margin,
                                 n_check=n_check, quadrature_n=kw.get("quadrature_n", DEFAULT_N))
+    if grid is not None:
+        return spline_phi_time_field(coords, grid, degree=degree, name=name, **kw)
     C = PhiTimePotential(coords)
     yb = coords.ybox
     kw.setdefault("origin", (0.5 * (yb[0][0] + yb[0][1]), yb[1][0], 0.5 * (yb[2][0] + yb[2][1])))

@@ -37,7 +37,11 @@ import sympy as sp
 from sympy.core.function import ArgumentIndexError
 
 from ....grids._bspline import PeriodicAntiderivative, TensorSpline
-from ....grids._spline_potential import SplinePotential
+from ....grids._spline_potential import (
+    SplinePotential,
+    affine_antiderivative,
+    affine_value,
+)
 from .data import HS, PACKERS, DataRef, code3, e_sub, emission, uncode3
 
 __all__ = ["C_HELPERS", "SplineAt", "domain_reason", "domain_test", "hoist", "spline_calls",
@@ -86,10 +90,16 @@ def _spline_atom(s: TensorSpline, name: str, x: Sequence[Any]) -> sp.Expr:
 def spline_exprs(A: SplinePotential, x: Sequence[Any]) -> tuple:
     """(components, antiderivative(k, c, n)) of a spline potential as atoms at x: the
     antiderivative is exact (a spline; far round a periodic axis μ·(x_k − c) + Q), n unused."""
-    comps = tuple(_spline_atom(s, f"A{i}", x) for i, s in enumerate(A.splines))
+    comps = tuple(_spline_atom(s, f"A{i}", x) if a is None else sp.sympify(affine_value(_exact(a), x))
+                  for i, (s, a) in enumerate(zip(A.splines, A.affine)))
     scal: dict = {}
 
     def anti(k, c, n):
+        if A.affine[k] is not None:  # the affine component's own antiderivative, c read at run time
+            key = (k, float(c))
+            if key not in scal:
+                scal[key] = DataRef(f"c{k}", float(c))
+            return sp.sympify(affine_antiderivative(_exact(A.affine[k]), k, x, scal[key]))
         obj = A.antiderivative(k, c)
         if isinstance(obj, TensorSpline):
             return _spline_atom(obj, f"X{k}", x)
@@ -102,6 +112,11 @@ def spline_exprs(A: SplinePotential, x: Sequence[Any]) -> tuple:
         return None
 
     return comps, anti
+
+
+def _exact(a: Sequence[float]) -> tuple:
+    """Affine coefficients as SymPy numbers, integers exact (so that a zero component is 0)."""
+    return tuple(sp.Integer(int(t)) if float(t).is_integer() else sp.Float(float(t)) for t in a)
 
 
 def domain_reason(field: Any) -> str | None:

@@ -1,0 +1,99 @@
+"""φ-time on a grid: K(v, φ, Z) sampled once and splined, so that a spline or coil field runs
+natively with φ as the time (issue #24, item 1).
+
+The φ-time field of :mod:`vpforms.phitime` is b = ∇×C in (v, φ, Z) with C = (0, K, −v) and
+K = s·A'_φ(U(v, φ, Z), φ, Z). Where A is not a formula (a spline of A on a grid, coils), U is a
+Newton solve, which the generated C of the native backend cannot differentiate. Here K is instead
+**sampled on a tensor grid of the (v, φ, Z) box and interpolated** by a C² tensor spline
+(periodic in φ), and C = (0, K_spline, −v) becomes a :class:`~vpforms.grids.SplinePotential`:
+
+* b = ∇×C is still **exactly divergence free** in (v, φ, Z) (the curl of a spline), so every
+  method stays exactly volume preserving — only *which* divergence-free field is traced changes,
+  by the interpolation error of K (reported as ``field.phi_time_spline_error``);
+* C_v = 0 and C_Z = −v are kept as themselves (``SplinePotential.affine``: no spline evaluation, in
+  JAX and in the generated C), so the pairs of the φ-exact cases are C's own gauge (χ = 0 along v,
+  −v(Z − c) along Z, exact), and their steps advance φ by h to rounding;
+* the field is a spline field: the native backend generates C for it like any other
+  (:mod:`vpforms.backends.native.codegen.splines`), and a new grid of the same structure reuses
+  the compiled kernel;
+* the point maps (u, φ, Z) ↔ (v, φ, Z) (:func:`~vpforms.phitime.to_phi_time`,
+  :func:`~vpforms.phitime.from_phi_time`) stay those of the exact coordinates (v = −s·A'_Z of the
+  given A, U by Newton): they are used only at the starting points and the saved points.
+
+The K samples cost one Newton solve of U per node (vectorised; on a spline of A, seconds for 10⁶
+nodes). The domain is the grid's box in (v, Z): a step that leaves it stops with
+``RESULTS.left_domain`` on both backends.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ..fields import Field
+from ._coordinates import PhiTimeCoordinates
+
+__all__ = ["spline_phi_time_field"]
+
+
+def spline_phi_time_field(coords: PhiTimeCoordinates, grid: Any, *, degree: int = 3,
+                          name: str = "phi-time field", n_check: int = 400, seed: int = 0,
+                          chunk: int = 1 << 16, **kw: Any) -> Field:
+    """The φ-time field of ``coords`` with K splined on a ``grid`` = (n_v, n_φ, n_Z) tensor grid of
+    the (v, φ, Z) box ``coords.ybox`` (n_φ nodes per period of φ, uniform; n_v, n_Z uniform with the
+    box's ends), degree ``degree`` ≥ 3 per axis (module docstring).
+
+    ``field.phi_time_spline_error`` is max |b_spline − b| / max |b| over ``n_check`` seeded points
+    of the box, b = (−∂_ZK, 1, ∂_vK) of the exact K (U by Newton). Further keywords go to
+    :meth:`vpforms.Field.from_vector_potential` (``origin`` defaults to the box centre)."""
+    from ..grids import SplinePotential
+
+    n = tuple(int(g) for g in grid)
+    if len(n) != 3 or any(g != t for g, t in zip(n, grid)):
+        raise ValueError(f"grid must be three node counts (n_v, n_φ, n_Z); got {grid!r}")
+    need = (degree + 1, degree, degree + 1)
+    if any(g < m for g, m in zip(n, need)):
+        raise ValueError(f"a degree-{degree} spline needs a grid of at least {need} nodes; got {n}")
+    (v0, v1), (p0, p1), (z0, z1) = coords.ybox
+    T = coords.period
+    if T is None:
+        raise ValueError("a φ-time spline needs a φ-periodic potential (ToroidalPotential(A, nfp))")
+    nodes = (np.linspace(v0, v1, n[0]), p0 + T * np.arange(n[1]) / n[1], np.linspace(z0, z1, n[2]))
+    V, P, Z = (t.ravel() for t in np.meshgrid(*nodes, indexing="ij"))
+    K = jax.jit(jax.vmap(coords._K))
+    vals = np.concatenate([np.asarray(K(V[i:i + chunk], P[i:i + chunk], Z[i:i + chunk]))
+                           for i in range(0, V.size, chunk)])
+    if not np.all(np.isfinite(vals)):
+        i = int(np.flatnonzero(~np.isfinite(vals))[0])
+        raise ValueError(f"K is not finite at the node (v, φ, Z) = ({V[i]:.6g}, {P[i]:.6g}, {Z[i]:.6g}) "
+                         f"of the φ-time grid: U has no root in the u interval {coords.box[0]} there")
+    C = np.stack([np.zeros(V.size), vals, -V]).reshape(3, *n)
+    pot = SplinePotential.from_samples(
+        nodes, C, periodic=(False, T, False), degree=degree,
+        description=f"φ-time potential (0, K, −v), K splined on a {'×'.join(map(str, n))} (v, φ, Z) grid")
+    pot.affine = ((0, 0, 0, 0), None, (0, -1, 0, 0))  # C_v = 0 and C_Z = −v themselves, not splines
+    kw.setdefault("origin", pot.center)
+    field = Field.from_vector_potential(pot, box=pot.grid_box, name=name, **kw)
+    field.coordinates = coords.describe() + f"; K splined on a {'×'.join(map(str, n))} grid (degree {degree})"
+    field.periods = (None, T, None)
+    field.phi_time = coords
+    field.inside = pot.inside  # the grid's box: native emits it as the domain test
+    field.phi_time_spline_error = _b_error(coords, pot, n_check, seed)
+    return field
+
+
+def _b_error(coords: PhiTimeCoordinates, pot: Any, n: int, seed: int) -> float:
+    """max |∇×C_spline − b| / max |b| at n seeded points of the spline's box (b of the exact K)."""
+    lo, hi = np.array(pot.grid_box).T
+    y = np.random.default_rng(seed).uniform(lo, hi, (n, 3))
+
+    def b_exact(p):
+        dK = jax.grad(coords._K, argnums=(0, 2))(p[0], p[1], p[2])
+        return jnp.stack([-dK[1], jnp.ones_like(dK[0]), dK[0]])
+
+    exact = np.asarray(jax.jit(jax.vmap(b_exact))(jnp.asarray(y)))
+    got = np.asarray(pot.curl(y))
+    return float(np.max(np.abs(got - exact)) / np.max(np.abs(exact)))
