@@ -131,12 +131,12 @@ def run_vpforms_phi_time(x_R, ref, settings, n_acc_tr, transits, coils):
     rows, compiled, fields = [], set(), {}
     for grid, kgrid, order, n in settings:
         t = time.perf_counter()
-        if grid not in fields:
-            fields[grid] = spline_coil_field(coils, BOX_R, BOX_Z, n_R=grid[0], n_phi=grid[1], n_Z=grid[2],
-                                             name="peers")
-        field, spline_err = fields[grid]
-        pf = phi_time_field(field, grid=kgrid, name="peers φ-time")  # the box: the spline's grid
-        t_build = time.perf_counter() - t
+        if (grid, kgrid) not in fields:  # the φ-time field, built once per (A grid, K grid)
+            field, spline_err = spline_coil_field(coils, BOX_R, BOX_Z, n_R=grid[0], n_phi=grid[1], n_Z=grid[2],
+                                                  name="peers")
+            pf = phi_time_field(field, grid=kgrid, name="peers φ-time")  # the box: the spline's grid
+            fields[grid, kgrid] = (pf, spline_err, time.perf_counter() - t)
+        pf, spline_err, t_build = fields[grid, kgrid]
         m = phi_time_scheme(pf, "SE+SE", order=order)
         y0 = np.asarray(to_phi_time(pf, x0))
         h = 2 * np.pi / NFP / n
@@ -210,6 +210,8 @@ def main(argv=None) -> int:
                     help="folder holding the peers' virtual environments <venvs>/desc, <venvs>/essos")
     ap.add_argument("--work", default=None, help="work folder (default: a temporary one)")
     ap.add_argument("--tools", default="vpforms,desc,essos", help="comma-separated subset to run")
+    ap.add_argument("--reuse", default="", help="comma-separated peers not re-run: their <work>/<tool>.json "
+                    "of an earlier run (same --work) is re-analysed, and the table says so")
     ap.add_argument("--essos-transits", type=int, default=100, help="transits ESSOS runs (then extrapolated)")
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
@@ -225,9 +227,10 @@ def main(argv=None) -> int:
     settings = ([((12, 8, 12), 2, 0.05)] if smoke else [(fine, 4, 0.025), (fine, 6, 0.025)])
     # φ as the time: (A grid, K grid, order, steps per field period); K's error is set by its φ
     # resolution (K has more φ structure than A: 32 → 64 → 128 nodes per period gave b errors
-    # 9.4e-4, 1.1e-4, 6.3e-5 on the 40×32×40 A), so the K grid is fine in φ
+    # 9.4e-4, 1.1e-4, 6.3e-5 on the 40×32×40 A) and at the Z edges, so the K grid is fine in φ and Z
+    kfine = (48, 256, 96)  # (v, φ, Z), v and Z nodes clustered at the ends (phitime._spline)
     phi_settings = ([((12, 8, 12), (8, 16, 8), 2, 4)] if smoke else
-                    [(fine, (48, 256, 48), 4, 32), (fine, (48, 256, 48), 6, 16), (fine, (48, 256, 48), 6, 24)])
+                    [(fine, kfine, 4, 20), (fine, kfine, 4, 32), (fine, kfine, 6, 16), (fine, kfine, 6, 24)])
     work = args.work or tempfile.mkdtemp(prefix="vpforms-peers-size-")
     os.makedirs(work, exist_ok=True)
     coils = l2_stellarator()
@@ -257,6 +260,13 @@ def main(argv=None) -> int:
     if "vpforms" in tools:
         rows += run_vpforms_phi_time(x_R, ref, phi_settings, n_acc_tr, transits, coils)
     results, failures = run_peers(tools, args.venvs, work)
+    reused = []
+    for tool in (t for t in args.reuse.split(",") if t and t not in tools):
+        path = os.path.join(work, f"{tool}.json")
+        if os.path.exists(path):
+            with open(path) as fh:
+                results[tool] = json.load(fh)
+            reused.append(tool)
     rows += [peer_row(res, ref, n_acc_tr, transits) for res in results.values()]
 
     table = [f"| tool | settings | error at {n_acc_tr} transits, {n_lines} lines (m) | size (lines × transits) | wall time (s) | "
@@ -280,6 +290,8 @@ def main(argv=None) -> int:
          "One tool at a time, each on the same 2 cores (load average at the end of each run)."), "",
         *table, "",
         *([f"* {t}: {why}" for t, why in failures.items()] + [""] if failures else []),
+        *([f"* Re-analysed from an earlier run of this script (same work folder and problem, not re-run): "
+           f"{', '.join(reused)}.", ""] if reused else []),
         machine("bench_peers_issue_size.py", time.perf_counter() - t0, smoke), ""])
     return write_results(args.out, text)
 

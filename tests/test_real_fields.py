@@ -120,3 +120,21 @@ def test_the_tokamak_problem_traces_the_lines_of_its_coils(tokamak):
         return (phi[-1] - phi[0]) / (theta[-1] - theta[0])
 
     assert abs(q(ours) - q(ref)) <= 1e-5 * q(ref)
+
+
+@pytest.mark.slow  # ~40 s: the tokamak problem's spline, one kernel with the ring's elliptic integrals
+def test_the_coil_tokamak_with_its_exact_ring_runs_natively(tokamak):
+    """The plasma-current ring is exact (elliptic integrals; SymPy's closed-form dK/dm, dE/dm in
+    the generated C, the AGM of JAX's ``ellipke`` for the values): SE+SE native == JAX ≤ 1e-10
+    after 100 steps, the same statuses — so every problem of the library runs natively."""
+    from vpforms.backends.native.codegen.vecpot import vecpot_reason
+
+    assert vecpot_reason(tokamak.field) is None
+    m = vpforms.scheme(tokamak.field, "SE+SE", recover=False)
+    x0 = tokamak.x0
+    sols = [vpforms.integrate(m, x0, 0.02, 100, save_every=50, backend=b, progress=False)
+            for b in ("jax", "native")]
+    np.testing.assert_array_equal(sols[1].status, sols[0].status)
+    assert np.all(sols[0].status == RESULTS.successful)
+    np.testing.assert_allclose(sols[1].xs, sols[0].xs, rtol=0, atol=1e-10)
+    assert sols[1].stats["backend"] == "native"

@@ -1,7 +1,8 @@
 """The C printer of the generated kernels, and which SymPy functions it can print.
 
 C99 (``math.h``) has erf, erfc, tgamma (Γ), lgamma (log Γ), expm1, log1p, cbrt, hypot besides the
-elementary functions; Heaviside, sinc and sign print as conditionals.  A field or potential using a
+elementary functions; the complete elliptic integrals K(m) and E(m) print as the AGM helpers of
+:mod:`.ring`; Heaviside, sinc and sign print as conditionals.  A field or potential using a
 function C has no implementation of (Si, erfi, the Bessel functions, …) is not generated natively
 (:func:`c_unsupported` names it; :func:`vpforms.integrate` then runs on JAX and says why).
 """
@@ -27,6 +28,15 @@ class _Printer(C99CodePrinter):
             prod = "*".join([base] * abs(int(e)))
             return f"({prod})" if e > 0 else f"(1.0/({prod}))"
         return super()._print_Pow(expr)
+
+    # the complete elliptic integrals K(m), E(m): the AGM helpers of .ring (one argument only)
+    def _print_elliptic_k(self, expr):
+        return f"vp_ellipk({self._print(expr.args[0])})"
+
+    def _print_elliptic_e(self, expr):
+        if len(expr.args) != 1:
+            return self._print_not_supported(expr)
+        return f"vp_ellipe({self._print(expr.args[0])})"
 
 
 printer = _Printer()

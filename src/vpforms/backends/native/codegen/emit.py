@@ -40,7 +40,7 @@ from ...._guard import FLOOR as GUARD_FLOOR
 from ...._methods._base import Method
 from ...._solution import describe
 from ....symbolic import _symbols as G
-from . import coils, data, splines
+from . import coils, data, ring, splines
 from .assign import _C, _assign, _gl_table
 from .cprinter import printer as _printer
 from .lanes import lane_code
@@ -558,6 +558,7 @@ void vp_run(int64_t N, double *x, int32_t *status, int64_t *n, int64_t n_target,
 #define _VP_FINITE(a, b, c) ((fabs(a) <= DBL_MAX) & (fabs(b) <= DBL_MAX) & (fabs(c) <= DBL_MAX))
 {_SIMD_DECLS}
 {splines.C_HELPERS if "vp_cell(" in fns + steps else ""}
+{ring.C_HELPERS if "vp_ellip" in fns + steps else ""}
 {tables}
 {helpers}
 {fns}

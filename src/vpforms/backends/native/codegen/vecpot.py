@@ -2,7 +2,8 @@
 
 A field built by :meth:`vpforms.Field.from_vector_potential` from a spline of A
 (:class:`vpforms.grids.SplinePotential`, :mod:`.splines`) or from filament coils
-(:class:`vpforms.coils.CoilPotential`, Cartesian or in toroidal coordinates, :mod:`.coils`) —
+(:class:`vpforms.coils.CoilPotential`, Cartesian or in toroidal coordinates, :mod:`.coils`) or a
+circular filament ring (:mod:`.ring`) —
 relabelled or summed (:mod:`vpforms._vecpot`) — has its A as SymPy atoms in G.x, so the field is
 a = ∇×A of the atoms and the SE/DL pairs are A − ∇χ with χ the potential's own antiderivative as
 JAX takes it: exact for a spline, the periodic-aware Gauss–Legendre rule of the same nodes for
@@ -19,6 +20,7 @@ from ...._vecpot import GAUGE_ZERO, RelabelledPotential, SumPotential, VectorPot
 from ....grids._spline_potential import SplinePotential
 from ....symbolic import _symbols as G
 from .coils import coil_exprs
+from .ring import ring_exprs
 from .splines import spline_exprs
 
 __all__ = ["vecpot_field_exprs", "vecpot_pair", "vecpot_reason"]
@@ -38,6 +40,8 @@ def _pot_exprs(A: Any) -> _Exprs | str:
     if isinstance(A, SplinePotential):
         return _Exprs(*spline_exprs(A, x))
     got = coil_exprs(A, x)
+    if got is None:
+        got = ring_exprs(A, x)
     if got is not None:
         return _Exprs(*got)
     if isinstance(A, RelabelledPotential):  # Ã_k(x) = s·A_{π(k)}(x·π⁻¹), χ̃_k = s·χ_{π(k)}(x·π⁻¹)
@@ -65,7 +69,7 @@ def _pot_exprs(A: Any) -> _Exprs | str:
         return _Exprs(tuple(sp.Add(*(p.components[i] for p in parts)) for i in range(3)), anti)
     return (f"its vector potential ({getattr(A, 'description', type(A).__name__)}) is neither a "
             "spline nor coils; native evaluates splines of A (vpforms.grids), filament coils "
-            "(vpforms.coils.CoilPotential) and SymPy fields only")
+            "(vpforms.coils.CoilPotential), circular rings and SymPy fields only")
 
 
 def _vector_potential(field: Any) -> VectorPotential | None:
