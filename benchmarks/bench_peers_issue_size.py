@@ -210,6 +210,7 @@ def main(argv=None) -> int:
                     help="folder holding the peers' virtual environments <venvs>/desc, <venvs>/essos")
     ap.add_argument("--work", default=None, help="work folder (default: a temporary one)")
     ap.add_argument("--tools", default="vpforms,desc,essos", help="comma-separated subset to run")
+    ap.add_argument("--rows", default="time,phi", help="which vpforms rows: time (time stepping), phi (φ as the time)")
     ap.add_argument("--reuse", default="", help="comma-separated peers not re-run: their <work>/<tool>.json "
                     "of an earlier run (same --work) is re-analysed, and the table says so")
     ap.add_argument("--essos-transits", type=int, default=100, help="transits ESSOS runs (then extrapolated)")
@@ -228,7 +229,7 @@ def main(argv=None) -> int:
     # φ as the time: (A grid, K grid, order, steps per field period); K's error is set by its φ
     # resolution (K has more φ structure than A: 32 → 64 → 128 nodes per period gave b errors
     # 9.4e-4, 1.1e-4, 6.3e-5 on the 40×32×40 A) and at the Z edges, so the K grid is fine in φ and Z
-    kfine = (48, 256, 96)  # (v, φ, Z), v and Z nodes clustered at the ends (phitime._spline)
+    kfine = (48, 256, 96)  # (v, φ, Z), uniform nodes
     phi_settings = ([((12, 8, 12), (8, 16, 8), 2, 4)] if smoke else
                     [(fine, kfine, 4, 20), (fine, kfine, 4, 32), (fine, kfine, 6, 16), (fine, kfine, 6, 24)])
     work = args.work or tempfile.mkdtemp(prefix="vpforms-peers-size-")
@@ -256,8 +257,9 @@ def main(argv=None) -> int:
     print(f"reference {t_ref:.0f} s", flush=True)
 
     tools = args.tools.split(",")
-    rows = run_vpforms(x_R, ref, settings, n_acc_tr, transits, coils) if "vpforms" in tools else []
-    if "vpforms" in tools:
+    which = args.rows.split(",")
+    rows = run_vpforms(x_R, ref, settings, n_acc_tr, transits, coils) if "vpforms" in tools and "time" in which else []
+    if "vpforms" in tools and "phi" in which:
         rows += run_vpforms_phi_time(x_R, ref, phi_settings, n_acc_tr, transits, coils)
     results, failures = run_peers(tools, args.venvs, work)
     reused = []

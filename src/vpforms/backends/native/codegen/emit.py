@@ -557,8 +557,7 @@ void vp_run(int64_t N, double *x, int32_t *status, int64_t *n, int64_t n_target,
 #define _VP_INLINE __attribute__((always_inline))
 #define _VP_FINITE(a, b, c) ((fabs(a) <= DBL_MAX) & (fabs(b) <= DBL_MAX) & (fabs(c) <= DBL_MAX))
 {_SIMD_DECLS}
-{splines.C_HELPERS if "vp_cell(" in fns + steps else ""}
-{ring.C_HELPERS if "vp_ellip" in fns + steps else ""}
+{splines.C_HELPERS if "vp_cell(" in fns + steps else ""}{ring.C_HELPERS if "vp_ellip" in fns + steps else ""}
 {tables}
 {helpers}
 {fns}
