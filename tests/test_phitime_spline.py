@@ -127,7 +127,6 @@ def test_sections_converge_to_the_field_lines_as_the_grid_refines(coords, field)
     assert errs[1] < errs[0] / 8 and all(e <= b for e, b in zip(errs, bounds)), (errs, bounds)
 
 
-@pytest.mark.slow  # ~8 s
 def test_native_equals_jax_and_stops_at_the_grid(field):
     """The generated C steps the spline field as JAX does (1e-10), and lines started at the four
     (v, Z) corners of the grid's box leave it (the flow circulates about an axis inside, so at a
@@ -146,6 +145,7 @@ def test_native_equals_jax_and_stops_at_the_grid(field):
     np.testing.assert_array_equal(sols[1].failed_step, sols[0].failed_step)
 
 
+@pytest.mark.slow  # ~30–60 s: the coils' spline, its φ-time field, JAX and native runs
 def test_a_spline_of_coils_runs_natively():
     """The use it is for: coils → a spline of A (``spline_coil_field``) → φ-time with K on a grid
     (the box defaults to the spline's; v levelled, since Biot–Savart's A_Z is ragged) → native, as

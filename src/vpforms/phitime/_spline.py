@@ -34,6 +34,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..fields import Field
+from ..grids import SplinePotential
 from ._coordinates import PhiTimeCoordinates
 
 __all__ = ["spline_phi_time_field"]
@@ -57,8 +58,6 @@ def spline_phi_time_field(coords: PhiTimeCoordinates, grid: Any, *, degree: int 
     ``field.phi_time_spline_error`` is max |b_spline − b| / max |b| over ``n_check`` seeded points
     of the box, b = (−∂_ZK, 1, ∂_vK) of the exact K (U by Newton). Further keywords go to
     :meth:`vpforms.Field.from_vector_potential` (``origin`` defaults to the box centre)."""
-    from ..grids import SplinePotential
-
     n = tuple(int(g) for g in grid)
     if len(n) != 3 or any(g != t for g, t in zip(n, grid)):
         raise ValueError(f"grid must be three node counts (n_v, n_φ, n_Z); got {grid!r}")
