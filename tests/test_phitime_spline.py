@@ -174,6 +174,8 @@ def test_bad_input_is_a_clear_error():
         phi_time_field(A, BOX, grid=(3, 16, 12))
     with pytest.raises(ValueError, match="three node counts"):
         phi_time_field(A, BOX, grid=(12, 16))
+    with pytest.raises(ValueError, match="cluster"):
+        phi_time_field(A, BOX, grid=GRID, cluster=1.5)
     with pytest.raises(TypeError, match="give the"):
         phi_time_field(A, grid=GRID)  # no grid box to default to
     with pytest.raises(ValueError, match="level_v"):

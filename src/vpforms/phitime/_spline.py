@@ -61,6 +61,8 @@ def spline_phi_time_field(coords: PhiTimeCoordinates, grid: Any, *, degree: int 
     n = tuple(int(g) for g in grid)
     if len(n) != 3 or any(g != t for g, t in zip(n, grid)):
         raise ValueError(f"grid must be three node counts (n_v, n_φ, n_Z); got {grid!r}")
+    if not 0.0 <= float(cluster) <= 1.0:
+        raise ValueError(f"cluster must be in [0, 1] (0 uniform, 1 Chebyshev–Lobatto); got {cluster!r}")
     need = (degree + 1, degree, degree + 1)
     if any(g < m for g, m in zip(n, need)):
         raise ValueError(f"a degree-{degree} spline needs a grid of at least {need} nodes; got {n}")
