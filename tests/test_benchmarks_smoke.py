@@ -185,7 +185,10 @@ def test_bench_peers_issue_size_smoke(tmp_path):
     # vpforms only: the peers' environments (if this machine has them) are never run by the tests
     text = _smoke("bench_peers_issue_size", tmp_path, "--tools", "vpforms", "--work", str(tmp_path / "work"))
     rows = [r for r in text.splitlines() if r.startswith("| vpforms")]
-    assert len(rows) == 1 and "4 × 4" in rows[0]
+    # one time-stepping row and one φ-time row (K splined on the (v, φ, Z) grid, native)
+    assert len(rows) == 2 and all("4 × 4" in r for r in rows) and "φ as the time" in rows[1]
     assert not [r for r in text.splitlines() if r.startswith(("| DESC", "| ESSOS"))]
-    err = float(rows[0].split("|")[3])
+    err, err_phi = (float(r.split("|")[3]) for r in rows)
     assert 0 < err < 0.05  # order 2 at h = 0.05 after 2 transits on a 12×8×12 grid: ~5e-4 m
+    # order 2, 4 steps per field period on an 8×16×8 K grid of that spline: ~6e-2 m
+    assert 0 < err_phi < 0.2 and "0 failed" in rows[1]
