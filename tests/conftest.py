@@ -17,6 +17,7 @@ import os
 import re
 from pathlib import Path
 
+import platformdirs
 import pytest
 
 import vpforms  # noqa: F401  (float64 on)
@@ -26,18 +27,23 @@ SHARED = REPO.parent / "shared"
 
 # ------------------------------------------------------------- one compilation per computation
 # XLA compilation is about half of the suite's time, and the same computations are compiled by
-# both xdist workers, again after a cache clear (below), and again by the verification tier after
-# the fast tier.  JAX's persistent compilation cache shares them on disk (same executables, so the
-# same numbers); subprocesses (the CLI tests) inherit it through the environment.  A user's own
-# JAX_COMPILATION_CACHE_DIR wins; VPFORMS_TEST_JAX_CACHE=0 turns it off.
+# both xdist workers, again after a cache clear (below), again by the verification tier after
+# the fast tier, and again by every clone of the repository.  JAX's persistent compilation cache
+# shares them on disk (same executables, so the same numbers; its key is the computation and the
+# JAX/XLA versions, not the source path), in the user's cache directory beside the native
+# backend's (platformdirs.user_cache_dir("vpforms")/jax-tests, at most 2 GiB, least recently used
+# entries evicted); subprocesses (the CLI tests) inherit it through the environment.  A user's own
+# JAX_COMPILATION_CACHE_DIR wins; VPFORMS_TEST_JAX_CACHE=0 turns it off (a cold run).
 if os.environ.get("VPFORMS_TEST_JAX_CACHE", "1") != "0":
-    os.environ.setdefault("JAX_COMPILATION_CACHE_DIR", str(REPO / ".pytest_cache" / "jax-compilation"))
+    os.environ.setdefault("JAX_COMPILATION_CACHE_DIR",
+                          str(Path(platformdirs.user_cache_dir("vpforms")) / "jax-tests"))
     os.environ.setdefault("JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS", "0.5")
     import jax
 
     jax.config.update("jax_compilation_cache_dir", os.environ["JAX_COMPILATION_CACHE_DIR"])
     jax.config.update("jax_persistent_cache_min_compile_time_secs",
                       float(os.environ["JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS"]))
+    jax.config.update("jax_compilation_cache_max_size", 2 * 2**30)
 
 # --------------------------------------------------------------------------------- the two tiers
 # Patterns match the whole node id as pytest prints it, with σ/Σ written as such; "*" is the only

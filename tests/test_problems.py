@@ -268,21 +268,25 @@ def test_tokamak_safety_factor_closed_form_matches_a_traced_line():
 
     P = tokamak.make(eps=0)
     f = P.field
+
+    def rhs(t, y):  # the line and its toroidal angle: φ' = (x y' − y x')/(x² + y²)
+        a = np.asarray(f(y[:3]))
+        return [*a, (y[0] * a[1] - y[1] * a[0]) / (y[0] ** 2 + y[1] ** 2)]
+
+    def up(t, y):
+        return y[2]
+
+    up.direction, up.terminal = 1.0, True
     for rho in (0.05, 0.3, 0.4):
-        x0 = np.array([1.0 + rho, 0.0, 0.0])
-
-        def up(t, y):
-            return y[2]
-
-        up.direction = 1.0
-        # leaves x3 = 0 upwards at t = 0 (B_pol·ẑ > 0 outboard): skip that start
-        sol = solve_ivp(lambda t, y: np.asarray(f(y)), (0, 200), x0, method="DOP853",
-                        rtol=1e-11, atol=1e-12, events=up, dense_output=True)
-        t_turn = [t for t in sol.t_events[0] if t > 1e-6][0]
-        y = sol.sol(t_turn)
-        phi = np.unwrap([np.arctan2(*sol.sol(t)[[1, 0]]) for t in np.linspace(0, t_turn, 2000)])
+        x0 = np.array([1.0 + rho, 0.0, 0.0, 0.0])
+        # it leaves x3 = 0 upwards at t = 0 (B_pol·ẑ > 0 outboard): a short first leg, then the
+        # next upward crossing ends the turn
+        opts = dict(method="DOP853", rtol=1e-11, atol=1e-12)
+        y1 = solve_ivp(rhs, (0, 1e-3), x0, **opts).y[:, -1]
+        sol = solve_ivp(rhs, (1e-3, 200), y1, events=up, **opts)
+        y = sol.y_events[0][0]
         assert abs(np.hypot(y[0], y[1]) - (1 + rho)) < 1e-6  # back on the outboard midplane
-        q = (phi[-1] - phi[0]) / (2 * np.pi)
+        q = y[3] / (2 * np.pi)
         assert abs(q - float(tokamak.safety_factor(rho))) < 1e-6 * q
     with pytest.raises(ValueError, match="0 < ρ"):
         tokamak.safety_factor(0.5)

@@ -78,7 +78,9 @@ def _segment_kernel(step_with_status, save_every, n_blocks, x, status, failed, n
             return (x, jnp.where(newly, st, status),
                     jnp.where(newly, n, failed).astype(failed.dtype), rec)
 
-        return lax.cond(n < n_stop, do, lambda a: a, c)
+        # a batch whose lanes are all frozen skips its remaining steps (they would be masked out:
+        # the same numbers), e.g. the few particles resumed after a recovered step, failing again
+        return lax.cond((n < n_stop) & jnp.any(c[1] == RESULTS.successful), do, lambda a: a, c)
 
     def block(carry, b):
         def step(c, j):
