@@ -14,8 +14,8 @@ The problem of ``bench_peers_issue_size.py``: the l = 2, m = 5 stellarator coils
      to (R, Z) by U (timed with the run).
    * DESC (``peers/run_desc.py``): Biot–Savart of the polylines at every stage, Tsit5 in φ, one
      accuracy run per tolerance ``--rtols`` (rtol = atol).
-2. **One surface at equal wall time**: the line from R = R_axis + 0.0867 m (the long line of
-   ``bench_peers_surfaces.py``): vpforms φ-time for ``--long-transits`` (10⁵) transits, and for 10⁴;
+2. **One surface at equal wall time**: the line of the 100 nearest R = R_axis + 0.0867 m (1.0698 m;
+   ``bench_peers_surfaces.py`` follows the one at 1.0587 m): vpforms φ-time for ``--long-transits`` (10⁵) transits, and for 10⁴;
    DESC at rtol 1e-8 (its default) for ``--desc-long-transits`` (10⁴: 10⁵ would take ~30 min).
    Each row gives its wall time and the distance of the section points from the Fourier curve fitted
    to the first 20 transits (``bench_peers_surfaces.thickness``: RMS over the fit window, over the last
@@ -39,11 +39,11 @@ sys.path.insert(0, HERE)
 sys.path.insert(0, os.path.join(HERE, "peers"))
 from _bench import machine, parser, write_results  # noqa: E402
 from _peer_common import dop853_section  # noqa: E402
-from bench_peers import R_AXIS, RK_TOL  # noqa: E402
+from bench_peers import R_AXIS, RK_TOL, _fit_residual  # noqa: E402
 from bench_peers_issue_size import BOX_R, BOX_Z, NFP, _error, run_peers  # noqa: E402
 from bench_peers_surfaces import thickness  # noqa: E402
 
-PNG = os.path.join(HERE, "peers", "stellarator_accuracy_time.png")
+PNG = os.path.join(os.path.dirname(HERE), "docs", "figures", "stellarator_accuracy_time.png")  # the docs show it
 
 
 def phi_time_of_coils(coils, grid, kgrid):
@@ -94,6 +94,15 @@ def run_vpforms(pf, x_R, ref, settings, n_tr):
                          load=os.getloadavg()[0]))
         print(rows[-1], flush=True)
     return rows
+
+
+def surface(R, Z):
+    """thickness() and the mean residual over the last 1000 transits: a drift of the line off its
+    surface moves the mean; a line that stays on its surface (or librates in an island about it)
+    keeps it, whatever its spread."""
+    fl, tail, slope, tr = thickness(R, Z)
+    t, d = _fit_residual(np.asarray(R), np.asarray(Z), 20)
+    return fl, tail, slope, tr, float(np.mean(d[t > t[-1] - 1000]))
 
 
 def run_vpforms_long(pf, R0, order, n, transits):
@@ -196,7 +205,7 @@ def main(argv=None) -> int:
         rows += run_vpforms(pf, x_R, ref, settings, n_tr)
         for tr, R, Z, wall, failed in run_vpforms_long(pf, x_R[long_i], long_order, long_n, long_tr):
             long_rows.append(("vpforms", f"φ-exact SE+SE ∘ order {long_order}, {long_n} steps per field period",
-                              tr, wall, thickness(R, Z), failed))
+                              tr, wall, surface(R, Z), failed))
     results, failures = run_peers([t for t in tools if t == "desc"], args.venvs, work)
     reused = []
     if "desc" in args.reuse.split(",") and "desc" not in tools and os.path.exists(os.path.join(work, "desc.json")):
@@ -207,7 +216,7 @@ def main(argv=None) -> int:
         for run in res["runs"]:
             if run["label"] == "long":
                 long_rows.append((res["tool"], f"{res['version']}: Tsit5 rtol=atol={run['rtol']:g}", run["transits"],
-                                  run["t"], thickness(np.asarray(run["R"])[:, 0], np.asarray(run["Z"])[:, 0]), 0))
+                                  run["t"], surface(np.asarray(run["R"])[:, 0], np.asarray(run["Z"])[:, 0]), 0))
                 continue
             err, _ = _error(run["R"], run["Z"], *ref, n_tr * NFP)
             # DESC recompiles per call: its wall less its 1-transit call (compilation + 1 transit)
@@ -228,9 +237,10 @@ def main(argv=None) -> int:
         t1.append(f"| {r['tool']} | {r['setting']} | {r['error']:.1e} | {r['wall']:.1f} | {r.get('call', r['wall']):.1f} | "
                   f"{r['fixed']:.1f} | {r['failed']} | {r['load']:.1f} |")
     t2 = ["| tool | settings | transits | wall time (s) | RMS residual, fit window (m) | RMS residual, last 1000 "
-          "transits (m) | trend per 1000 transits (m) |", "|---|---|---:|---:|---:|---:|---:|"]
-    for tool, setting, tr, wall, (fl, tail, slope, _), failed in long_rows:
-        t2.append(f"| {tool} | {setting} | {tr} | {wall:.1f} | {fl:.1e} | {tail:.1e} | {slope:+.1e} |"
+          "transits (m) | mean residual, last 1000 transits (m) | trend per 1000 transits (m) |",
+          "|---|---|---:|---:|---:|---:|---:|---:|"]
+    for tool, setting, tr, wall, (fl, tail, slope, _, mean), failed in long_rows:
+        t2.append(f"| {tool} | {setting} | {tr} | {wall:.1f} | {fl:.1e} | {tail:.1e} | {mean:+.1e} | {slope:+.1e} |"
                   + (f" ({failed} failed)" if failed else ""))
     text = "\n".join([
         "# Accuracy against wall time, and one surface at equal wall time: vpforms (φ as the time) and DESC", "",
@@ -242,11 +252,13 @@ def main(argv=None) -> int:
          "on every call, so its wall time with compile excluded is its call less its 1-transit call (the fixed "
          "cost). The plot shows the wall times with compile excluded. One tool at a time on the same 2 cores."), "",
         *([field_note, ""] if field_note else []),
-        f"![accuracy against wall time](peers/{os.path.basename(png)})", "",
+        f"![accuracy against wall time]({os.path.relpath(png, os.path.dirname(os.path.abspath(args.out)))})", "",
         "## Accuracy against wall time", "", *t1, "",
         (f"## One surface at equal wall time: the line from R = {x_R[long_i]:.4f} m"), "",
         ("Residual: distance of each section point from the Fourier curve ρ(θ) fitted to its first 20 transits "
-         "(`bench_peers_surfaces.thickness`). Compare rows of equal wall time."), "",
+         "(`bench_peers_surfaces.thickness`). A line that drifts off its surface moves the mean residual and "
+         "has a trend; a line that stays on its surface keeps its mean, whatever the spread of its points "
+         "(a line in a thin island chain librates about its fitted curve). Compare rows of equal wall time."), "",
         *t2, "",
         *([f"* {t}: {why}" for t, why in failures.items()] + [""] if failures else []),
         *([f"* Re-analysed from an earlier run of this script (same work folder, not re-run): {', '.join(reused)}.", ""]

@@ -192,3 +192,14 @@ def test_bench_peers_issue_size_smoke(tmp_path):
     assert 0 < err < 0.05  # order 2 at h = 0.05 after 2 transits on a 12×8×12 grid: ~5e-4 m
     # order 2, 4 steps per field period on an 8×16×8 K grid of that spline: ~6e-2 m
     assert 0 < err_phi < 0.2 and "0 failed" in rows[1]
+
+
+def test_bench_peers_curves_smoke(tmp_path):
+    # vpforms only (the peers' environments are never run by the tests)
+    text = _smoke("bench_peers_curves", tmp_path, "--tools", "vpforms", "--work", str(tmp_path / "work"))
+    rows = [r for r in text.splitlines() if r.startswith("| vpforms")]
+    # one accuracy row, then the long line at 3 and 6 transits
+    assert len(rows) == 3 and "order 2" in rows[0] and "| 0 |" in rows[0]
+    assert 0 < float(rows[0].split("|")[3]) < 0.2  # 4 steps per period on an 8×16×8 K grid: ~6e-2 m
+    assert [int(r.split("|")[3]) for r in rows[1:]] == [3, 6]
+    assert (tmp_path / "stellarator_accuracy_time.png").stat().st_size > 0  # the plot, beside the results
