@@ -110,6 +110,19 @@ def _batched(fn: Callable, x: jax.Array):
     return out.reshape(*lead, *out.shape[1:])
 
 
+def padded_blocks(fn: Callable, pts: np.ndarray, size: int) -> list[np.ndarray]:
+    """fn(block (size, 3)) -> arrays (size, …), on pts (M, 3) in blocks of ``size``, the last padded
+    with copies of its first point: one compiled shape whatever M (host side; numpy out)."""
+    outs = []
+    for lo in range(0, pts.shape[0], size):
+        block = pts[lo:lo + size]
+        m = block.shape[0]
+        if m < size:
+            block = np.concatenate([block, np.repeat(block[:1], size - m, axis=0)])
+        outs.append([np.asarray(o)[:m] for o in fn(block)])
+    return [np.concatenate(parts) for parts in zip(*outs)]
+
+
 def _check_box(box: Any) -> tuple[tuple[float, float], ...]:
     try:
         b = np.asarray(box, dtype=float)

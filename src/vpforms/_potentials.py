@@ -36,6 +36,7 @@ from ._fieldops import (
     _lambdify_numpy,
     _symbolic_zero,
     jax_unsupported,
+    padded_blocks,
     sample_box,
     vf1_expr,
     vf2_expr,
@@ -440,20 +441,6 @@ def check_pair(field: Any, splitting: str, points: Any = None, what: str = "") -
         raise PotentialError(f"{what}: {reason}" if what else reason)
 
 
-def _in_blocks(fn: Any, pts: np.ndarray) -> tuple[np.ndarray, ...]:
-    """fn on pts in blocks of CHECK_POINTS (the last padded with copies of its first point): one
-    compiled shape for the box and for any number of initial conditions, so that a run with a new
-    number of particles compiles nothing here."""
-    outs = []
-    for lo in range(0, pts.shape[0], CHECK_POINTS):
-        block = pts[lo:lo + CHECK_POINTS]
-        m = block.shape[0]
-        if m < CHECK_POINTS:
-            block = np.concatenate([block, np.repeat(block[:1], CHECK_POINTS - m, axis=0)])
-        outs.append([np.asarray(o)[:m] for o in fn(block)])
-    return tuple(np.concatenate(parts) for parts in zip(*outs))
-
-
 def _short(e: Any, n: int = 160) -> str:
     s = str(e)
     return s if len(s) <= n else s[: n - 1] + "…"
@@ -472,7 +459,9 @@ def _pair_problem(field: Any, splitting: str, pts) -> str | None:
             return f"{label}: {names[i]} = {_short(exprs[i])} {where}"
         if how in ("closed form", "user-supplied"):
             return None  # verified symbolically: reproduces the field wherever it is defined
-    a, r = _in_blocks(lambda q: (field(q), field.reconstruct(q, splitting)), pts)
+    # in blocks of CHECK_POINTS: one compiled shape for the box and any number of initial
+    # conditions, so that a run with a new number of particles compiles nothing here
+    a, r = padded_blocks(lambda q: (field(q), field.reconstruct(q, splitting)), pts, CHECK_POINTS)
     scale = max(float(np.max(np.abs(a[np.isfinite(a)]), initial=0.0)), np.finfo(float).tiny)
     err = np.max(np.abs(r - a), axis=1) / scale
     err = np.where(np.isfinite(err), err, np.inf)

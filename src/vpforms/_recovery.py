@@ -21,6 +21,7 @@ import jax
 import numpy as np
 
 from ._errors import RECOVERY, RESULTS
+from ._fieldops import padded_blocks
 from ._methods._base import Method
 from ._methods._compose import AdjointComposition, Composition, SymmetricPair
 from ._methods.recover import Recovering
@@ -56,15 +57,7 @@ def bare_first(run, method: Any, succeeded):
 
 def _padded(fn, x: np.ndarray, h: float):
     """fn(block (B, 3), h) -> arrays (B, …) on x (M, 3) in blocks of B = _BUFFER (one shape)."""
-    M = x.shape[0]
-    outs = []
-    for lo in range(0, M, _BUFFER):
-        hi = min(lo + _BUFFER, M)
-        block = x[lo:hi]
-        if hi - lo < _BUFFER:  # pad with copies of a real point: one compiled shape
-            block = np.concatenate([block, np.repeat(block[:1], _BUFFER - (hi - lo), axis=0)])
-        outs.append([np.asarray(o)[: hi - lo] for o in fn(block, h)])
-    return [np.concatenate(parts) for parts in zip(*outs)]
+    return padded_blocks(lambda block: fn(block, h), x, _BUFFER)
 
 
 def _checked(X: np.ndarray, st: np.ndarray) -> np.ndarray:
