@@ -31,10 +31,12 @@ SHARED = REPO.parent / "shared"
 # the fast tier, and again by every clone of the repository.  JAX's persistent compilation cache
 # shares them on disk (same executables, so the same numbers; its key is the computation and the
 # JAX/XLA versions, not the source path), in the user's cache directory beside the native
-# backend's (platformdirs.user_cache_dir("vpforms")/jax-tests, at most 2 GiB, least recently used
-# entries evicted: that needs filelock, in the test extra); subprocesses (the CLI tests) inherit it
-# through the environment.  A user's own
-# JAX_COMPILATION_CACHE_DIR wins; VPFORMS_TEST_JAX_CACHE=0 turns it off (a cold run).
+# backend's (platformdirs.user_cache_dir("vpforms")/jax-tests; delete it any time).  Unbounded on
+# purpose: JAX's size bound (jax_compilation_cache_max_size) keeps an access-time file per entry,
+# and one entry left without it (a process killed while writing: the Dask tests kill workers)
+# makes every later write fail, so the cache silently stops growing.  Subprocesses (the CLI tests)
+# inherit it through the environment.  A user's own JAX_COMPILATION_CACHE_DIR wins;
+# VPFORMS_TEST_JAX_CACHE=0 turns it off (a cold run).
 if os.environ.get("VPFORMS_TEST_JAX_CACHE", "1") != "0":
     os.environ.setdefault("JAX_COMPILATION_CACHE_DIR",
                           str(Path(platformdirs.user_cache_dir("vpforms")) / "jax-tests"))
@@ -44,12 +46,6 @@ if os.environ.get("VPFORMS_TEST_JAX_CACHE", "1") != "0":
     jax.config.update("jax_compilation_cache_dir", os.environ["JAX_COMPILATION_CACHE_DIR"])
     jax.config.update("jax_persistent_cache_min_compile_time_secs",
                       float(os.environ["JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS"]))
-    try:  # the bound needs filelock (the test extra has it); without it JAX disables the whole cache
-        import filelock  # noqa: F401
-
-        jax.config.update("jax_compilation_cache_max_size", 2 * 2**30)
-    except ImportError:
-        pass
 
 # --------------------------------------------------------------------------------- the two tiers
 # Patterns match the whole node id as pytest prints it, with σ/Σ written as such; "*" is the only
