@@ -184,7 +184,8 @@ def test_fast_hint_applies_to_generic_dl_schemes_only():
     spec = _with_fast(dl.spec())
     assert spec["kind"] == "compose" and spec["base"]["options"] == {"theta": 0.5, "fast": True, "recover": False}
     rebuilt = vpforms.method_from_spec(spec)
-    assert rebuilt.order == 4 and rebuilt.base.base.fast and rebuilt.base.base.theta == 0.5  # suzuki4[Ψ*∘Ψ]
+    psi = rebuilt.stages[0].method  # suzuki4[Ψ*∘Ψ]: its stages are Ψ and Ψ*
+    assert rebuilt.order == 4 and psi.fast and psi.theta == 0.5
     assert _with_fast(vpforms.scheme(f, Case((2, 3, 1), (1, 3, 2)), recover=False).spec()) is None  # SE+SE
     assert _with_fast(vpforms.scheme(f, "SE+DL", recover=False, fast=False).spec())["options"]["fast"] is True
     assert _with_fast(vpforms.scheme(f, "SE+DL", recover=False).spec()) is None  # the default: stages

@@ -23,9 +23,7 @@ from vpforms import Case, compose, scheme
 from vpforms._methods import (
     ADJOINT_COMPOSITIONS,
     COMPOSITIONS,
-    AdjointComposition,
     Composition,
-    SymmetricPair,
 )
 from vpforms._methods._compose import DEFAULT, from_splitting, stages
 from vpforms.problems import get
@@ -234,9 +232,14 @@ def test_stage_counts_and_order_eight_defaults():
     field = get("abc").field
     m = compose(scheme(field, "SE+SE", recover=False), order=8)
     assert isinstance(m, Composition) and m.order == 8 and m.symmetric
-    assert m.gammas == COMPOSITIONS[(8, DEFAULT[8])] and isinstance(m.base, SymmetricPair)
+    # stages as data: S_{γh} = Ψ*_{γh/2}∘Ψ_{γh/2} for each γ, Ψ and Ψ* in alternation
+    gam = COMPOSITIONS[(8, DEFAULT[8])]
+    assert m.coefficients == tuple(g * 0.5 for g in gam for _ in (0, 1))
+    psi = m.stages[0].method
+    assert all(s.method is (psi if k % 2 == 0 else psi.adjoint()) for k, s in enumerate(m.stages))
+    assert [s.adjoint for s in m.stages] == [k % 2 == 1 for k in range(len(m.stages))]
     m6 = compose(scheme(field, "SE+SE", recover=False), order=6, scheme="blanes_moan")
-    assert isinstance(m6, AdjointComposition) and m6.order == 6 and m6.symmetric
+    assert isinstance(m6, Composition) and m6.order == 6 and m6.symmetric
     assert len(m6.stages) == stages(6, "blanes_moan")
 
 
@@ -295,7 +298,9 @@ def test_adjoint_composition_has_order_two(cls, opts, field_name):
     field = get(field_name).field
     m = compose(scheme(field, cls, **opts), order=2)
     # a recovering scheme composes to a recovering composition (recovery of the composed step)
-    assert isinstance(m.without_recovery(), SymmetricPair)
+    pair = m.without_recovery()
+    assert isinstance(pair, Composition) and pair.coefficients == (0.5, 0.5)
+    assert pair.stages[1].method is pair.stages[0].method.adjoint()
     assert m.order == 2 and m.symmetric and m.cls == cls
     x0 = ABC_X0 if field_name == "abc" else LV_X0
     p, errs = observed_order(m, field, x0, 0.5, (4, 8, 16, 32))
@@ -318,8 +323,7 @@ def test_adjoint_composition_has_order_two(cls, opts, field_name):
 def test_higher_order_compositions(cls, field_name, order, scheme_name, ns):
     field = get(field_name).field
     m = compose(scheme(field, cls), order=order, scheme=scheme_name)
-    kind = AdjointComposition if scheme_name == "blanes_moan" else Composition
-    assert isinstance(m.without_recovery(), kind) and m.order == order and m.symmetric
+    assert isinstance(m.without_recovery(), Composition) and m.order == order and m.symmetric
     x0 = ABC_X0 if field_name == "abc" else LV_X0
     p, errs = observed_order(m, field, x0, 1.0, ns)
     assert abs(p - order) <= 0.1 * order / 2, (p, errs)
@@ -342,8 +346,7 @@ def test_order_eight_and_blanes_moan_six_on_abc(order, scheme_name, ns):
     small: 8.5 here); not below p − 0.3."""
     field = get("abc").field
     m = compose(scheme(field, "SE+SE"), order=order, scheme=scheme_name)
-    kind = AdjointComposition if scheme_name == "blanes_moan" else Composition
-    assert isinstance(m.without_recovery(), kind) and m.order == order and m.symmetric
+    assert isinstance(m.without_recovery(), Composition) and m.order == order and m.symmetric
     p, errs = observed_order(m, field, ABC_X0, 1.0, ns)
     assert 1e-12 <= min(errs) and max(errs) <= 1e-5, errs
     assert order - 0.3 <= p <= order + 0.7, (p, errs)

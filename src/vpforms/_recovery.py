@@ -23,7 +23,6 @@ import numpy as np
 from ._errors import RECOVERY, RESULTS
 from ._fieldops import padded_blocks
 from ._methods._base import Method
-from ._methods._compose import AdjointComposition, Composition, SymmetricPair
 from ._methods.recover import Recovering
 from ._methods.rk4 import RK4
 
@@ -94,20 +93,11 @@ def _host_step(method: Any, x: np.ndarray, h: float, bare_failed: bool = False):
             X[pend[ok]], how[pend[ok]] = Xa[ok], code
             st[pend] = sa
         return X, st, how
-    if isinstance(method, SymmetricPair):  # Ψ*_{h/2} ∘ Ψ_{h/2}
-        y, s1, r1 = _host_step(method.base, x, h / 2)
-        X, s2, r2 = _host_step(method.adj, y, h / 2)
-        return X, np.where(s1 != RESULTS.successful, s1, s2), np.maximum(r1, r2)
-    if isinstance(method, Composition):  # S_{γ_s h} ∘ … ∘ S_{γ_1 h}
+    stages = getattr(method, "stages", ())
+    if len(stages) > 1:  # a composition: stage by stage, each stage its own recovery
         X, st, how = x, np.zeros(x.shape[0], np.int32), np.zeros(x.shape[0], np.int32)
-        for g in method.gammas:
-            X, s, r = _host_step(method.base, X, g * h)
-            st, how = np.where(st != RESULTS.successful, st, s), np.maximum(how, r)
-        return X, st, how
-    if isinstance(method, AdjointComposition):  # Ψ*_{α_s h}∘Ψ_{β_s h}∘…∘Ψ_{β_1 h}
-        X, st, how = x, np.zeros(x.shape[0], np.int32), np.zeros(x.shape[0], np.int32)
-        for m, c in method.stages:
-            X, s, r = _host_step(m, X, c * h)
+        for stage in stages:
+            X, s, r = _host_step(stage.method, X, stage.coefficient * h)
             st, how = np.where(st != RESULTS.successful, st, s), np.maximum(how, r)
         return X, st, how
     if bare_method(method) is method:  # a bare (part of a) method: no recovery

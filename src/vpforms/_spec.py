@@ -7,7 +7,9 @@ was BUILT from, never as pickled jitted functions:
   (options are recorded generically: any JSON-able value flows through, so new scheme options
   need no change here);
 * ``compose(m, order, scheme)`` → ``{"kind": "compose", "base": …, "order": …, "scheme": …}``;
-* ``m.adjoint()`` → ``{"kind": "adjoint", "base": …}``; ``RK4(field)`` → ``{"kind": "rk4", …}``.
+* ``m.adjoint()`` → ``{"kind": "adjoint", "base": …}``; ``m.relabel(π)`` →
+  ``{"kind": "relabel", "base": …, "pi": [π(1), π(2), π(3)]}``; ``RK4(field)`` →
+  ``{"kind": "rk4", …}``.
 
 A field is its SymPy expressions (``sympy.srepr``, exact for Floats), symbols, box, name and the
 construction settings (plus user-supplied symbolic potentials), or the matrix of a linear field.
@@ -24,6 +26,7 @@ from ._case import Case
 from ._errors import SpecError
 from ._methods._base import Adjoint
 from ._methods.rk4 import RK4
+from ._perm import as_perm
 from ._spec_record import SPEC_VERSION, _case_json, _jsonable, records_spec
 from ._version import __version__
 from .fields import field_from_spec, field_spec
@@ -46,8 +49,13 @@ def method_spec(method: Any) -> dict:
         if isinstance(method, RK4):
             return {"kind": "rk4", "field": field_spec(method.field), "version": __version__}
         base = method.base if isinstance(method, Adjoint) else getattr(method, "adjoint_of", None)
-        if base is not None:  # an Adjoint, or the adjoint of a recovering method
+        if base is not None:  # an Adjoint, or the adjoint of a recovering method or composition
             return {"kind": "adjoint", "base": method_spec(base), "version": __version__}
+        relabel_of = getattr(method, "relabel_of", None)
+        if relabel_of is not None:  # Method.relabel(π)
+            base, pi = relabel_of
+            return {"kind": "relabel", "base": method_spec(base), "pi": list(as_perm(pi)),
+                    "version": __version__}
         raise SpecError(
             f"{type(method).__name__} was not built by vpforms.scheme/compose/adjoint: it has no spec "
             "(build it with vpforms.scheme(field, case, **options) to ship it)"
@@ -90,6 +98,8 @@ def method_from_spec(spec: dict | str) -> Any:
         return _methods.compose(method_from_spec(spec["base"]), spec["order"], spec.get("scheme"))
     if kind == "adjoint":
         return method_from_spec(spec["base"]).adjoint()
+    if kind == "relabel":
+        return method_from_spec(spec["base"]).relabel(tuple(spec["pi"]))
     if kind == "rk4":
         return RK4(field_from_spec(spec["field"]))
-    raise SpecError(f"unknown method spec kind {kind!r} (scheme, compose, adjoint, rk4)")
+    raise SpecError(f"unknown method spec kind {kind!r} (scheme, compose, adjoint, relabel, rk4)")

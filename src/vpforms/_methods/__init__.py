@@ -2,13 +2,14 @@
 
 One file per class recipe (se_se, se_dl, dl_dl, s1, s2), Quispel's correction maps for S1/S2 on
 nonlinear fields (correction), the case machinery (scheme: relabelling and adjunction) and
-higher order by composition (compose). Every recipe hands its potentials to the one engine
+higher order by composition (compose: one :class:`Composition`, a list of stages). Every recipe
+hands its potentials to the one engine
 :class:`vpforms.GeneratingMap`.
 """
 
-from ._base import Adjoint, GeneratingMethod, Method, RecipeError, Relabelled
-from ._compose import (ADJOINT_COMPOSITIONS, COMPOSITIONS, AdjointComposition, Composition,
-                      SymmetricPair, compose, triple_jump)
+from ._base import Adjoint, GeneratingMethod, Method, RecipeError, Relabelled, Stage
+from ._compose import (ADJOINT_COMPOSITIONS, COMPOSITIONS, Composition, adjoint_composition,
+                       compose, symmetric_pair, triple_jump)
 from .rk4 import RK4
 from .correction import QuispelCorrection, QuispelS1, QuispelS2
 from .dl_dl import DLDL
@@ -37,10 +38,11 @@ __all__ = [
     "representative_method",
     "compose",
     "ADJOINT_COMPOSITIONS",
-    "AdjointComposition",
     "COMPOSITIONS",
     "Composition",
-    "SymmetricPair",
+    "Stage",
+    "adjoint_composition",
+    "symmetric_pair",
     "triple_jump",
     "RK4",
 ]

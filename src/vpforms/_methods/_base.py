@@ -19,13 +19,19 @@ Solver contract (every :class:`Method`)
 * ``adjoint()`` is Ψ*_h = (Ψ_{−h})⁻¹, evaluated through the inverse map (prop:volpotinv), never
   by a Newton iteration on the whole step.
 
+* ``stages``: the step as data, a tuple of :class:`Stage` (map, coefficient of h, normal form)
+  applied left to right; one stage, the method itself, unless it is a composition
+  (:mod:`vpforms._methods._stages`).
+
 Relabelling (prop:trivperm) and adjunction (prop:switchperm) act on methods here:
-:class:`Relabelled` is (π, π)·Ψ built on the relabelled field, :class:`Adjoint` is Ψ*.
+:class:`Relabelled` is (π, π)·Ψ built on the relabelled field (``Method.relabel(π)``),
+:class:`Adjoint` is Ψ* (``Method.adjoint()``); on a composition both act stage by stage.
 """
 
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from dataclasses import dataclass
 from typing import Any
 
 import jax
@@ -37,8 +43,12 @@ from .._errors import RESULTS, VPFormsError, raise_for_status
 from .._guard import KAPPA, guard_status
 from .._map import _as_points, _batched
 from .._perm import Perm, as_perm
+from ._relabel import relabelled_field
 
-__all__ = ["Method", "GeneratingMethod", "Relabelled", "Adjoint", "RecipeError", "merge_status"]
+__all__ = ["Method", "GeneratingMethod", "Relabelled", "Adjoint", "RecipeError", "Stage",
+           "memo_relabel", "merge_status"]
+
+IDENTITY = Perm((1, 2, 3))
 
 
 class RecipeError(VPFormsError, ValueError):
@@ -56,6 +66,27 @@ def merge_status(*codes):
     for c in codes:
         out = jnp.where(out == RESULTS.successful, jnp.asarray(c, jnp.int32), out)
     return out
+
+
+@dataclass(frozen=True, eq=False)
+class Stage:
+    """One stage of a step (issue #19, stages as data): ``method`` at ``coefficient``·h.
+
+    ``method`` is (π, π)·``recipe``, adjoined when ``adjoint`` (prop:trivperm, prop:switchperm):
+    its normal form. ``recipe`` is a class recipe, RK4, or a map vpforms does not look into (a
+    recovering method, a sub-step ladder, a user's method). :mod:`vpforms._methods._stages` says
+    how the operations act on lists of stages.
+    """
+
+    method: Any
+    coefficient: float
+    recipe: Any
+    pi: Perm = IDENTITY
+    adjoint: bool = False
+
+    def scaled(self, c: float) -> "Stage":
+        """The same map at c times the coefficient (a stage of a composition of compositions)."""
+        return Stage(self.method, self.coefficient * c, self.recipe, self.pi, self.adjoint)
 
 
 class Method(ABC):
@@ -114,6 +145,24 @@ class Method(ABC):
     def _submethods(self) -> tuple:
         """The methods this one is built from (compositions, adjoints, recovery)."""
         return ()
+
+    # -- stages as data (issue #19) --------------------------------------------------------------
+    def _normal_form(self) -> tuple:
+        """(recipe, π, adjoint) with self = ((π, π)·recipe)^(*adjoint) (see :class:`Stage`)."""
+        return self, IDENTITY, False
+
+    @property
+    def stages(self) -> tuple:
+        """The stages of one step, in the order they act (:class:`Stage`): a method that is not a
+        composition is one stage, itself at coefficient 1."""
+        return (Stage(self, 1.0, *self._normal_form()),)
+
+    def relabel(self, pi: Perm | tuple) -> "Method":
+        """(π, π)·Ψ (prop:trivperm): X = Ψ(x·π)·π⁻¹, the method of case (π∘σ, π∘Σ) for the field
+        (π, π)·a, a(x) ↦ a(x·π)·π⁻¹ (this method's field relabelled by π⁻¹, as
+        :func:`vpforms._methods._relabel.relabelled_field` writes it)."""
+        return memo_relabel(self, pi, lambda pi: Relabelled(
+            self, pi, relabelled_field(self.field, pi.inverse())))
 
     def check_domain(self, points: Any = None, what: str | None = None) -> None:
         """Raise :class:`~vpforms.fields.PotentialError` unless every pair of potentials the step
@@ -314,8 +363,14 @@ class Method(ABC):
 
     # -- the two reductions ----------------------------------------------------------------------
     def adjoint(self) -> "Method":
-        """Ψ*_h = (Ψ_{−h})⁻¹ (prop:switchperm): case (Σ, σ), evaluated through the inverse map."""
-        return Adjoint(self)
+        """Ψ*_h = (Ψ_{−h})⁻¹ (prop:switchperm): case (Σ, σ), evaluated through the inverse map.
+
+        The same object on every call (its compiled steps are reused; the adjoint of a composition
+        shares the maps of the original)."""
+        memo = self.__dict__.get("_adjoint")
+        if memo is None:
+            memo = self.__dict__["_adjoint"] = Adjoint(self)
+        return memo
 
     def spec(self) -> dict:
         """The JSON-able construction record that rebuilds this method (:func:`vpforms.method_from_spec`)."""
@@ -353,6 +408,21 @@ class GeneratingMethod(Method):
         m = self.generating_map(h, X).inverse()
         return solve_from_guess(self, m, X, self._guess_inverse(_sg(X), h))
 
+
+
+def memo_relabel(method: Method, pi: Perm | tuple, build) -> Method:
+    """``method.relabel(π)`` = ``build(π)``, the same object on every call (as ``adjoint()``): the
+    stages of a relabelled composition then share their maps, and Ψ*.relabel(π) is
+    Ψ.relabel(π).adjoint(). The identity gives the method itself."""
+    pi = as_perm(pi)
+    if pi.is_identity:
+        return method
+    memo = method.__dict__.setdefault("_relabelled", {})
+    if pi not in memo:
+        out = build(pi)
+        out.relabel_of = (method, pi)  # its spec is {"kind": "relabel", "base": …, "pi": …}
+        memo[pi] = out
+    return memo[pi]
 
 
 def _sg(x):
@@ -403,6 +473,14 @@ class Relabelled(Method):
         bare = self.base.without_recovery()
         return self if bare is self.base else Relabelled(bare, self.pi, self.field)
 
+    def _normal_form(self) -> tuple:
+        recipe, pi, adj = self.base._normal_form()  # (π, π)·(ρ, ρ)·R = (π∘ρ, π∘ρ)·R
+        return recipe, self.pi * pi, adj
+
+    def relabel(self, pi: Perm | tuple) -> Method:
+        return memo_relabel(self, pi, lambda pi: Relabelled(
+            self.base, pi * self.pi, relabelled_field(self.field, pi.inverse())))
+
     def check_domain(self, points: Any = None, what: str | None = None) -> None:
         # the base runs on the relabelled field at y = x·π
         y = None if points is None else np.asarray(points, float).reshape(-1, 3)[:, list(self.pi.index)]
@@ -450,6 +528,13 @@ class Adjoint(Method):
 
     def adjoint(self) -> Method:
         return self.base
+
+    def relabel(self, pi: Perm | tuple) -> Method:
+        return self.base.relabel(pi).adjoint()  # relabelling commutes with adjunction
+
+    def _normal_form(self) -> tuple:
+        recipe, pi, adj = self.base._normal_form()
+        return recipe, pi, not adj
 
     def _submethods(self) -> tuple:
         return (self.base,)

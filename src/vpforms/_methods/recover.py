@@ -45,7 +45,7 @@ from jax import lax
 from .._case import CLASSES, cases
 from .._errors import RECOVERY, RESULTS, VPFormsError
 from .._guard import alternative_status
-from ._base import Method, merge_status
+from ._base import Method, memo_relabel, merge_status
 
 __all__ = ["Recovering", "SubstepLadder"]
 
@@ -69,6 +69,9 @@ class SubstepLadder(Method):
 
     def adjoint(self) -> Method:
         return SubstepLadder(self.base.adjoint(), self.k)
+
+    def relabel(self, pi) -> Method:
+        return SubstepLadder(self.base.relabel(pi), self.k)
 
     def _submethods(self) -> tuple:
         return (self.base,)
@@ -156,6 +159,13 @@ class Recovering(Method):
                          self.buffer, self.refused)
         out.adjoint_of = self  # its spec is {"kind": "adjoint", "base": self.spec()}
         return out
+
+    def relabel(self, pi) -> Method:
+        """(π, π)·Ψ with recovery: the bare step and every alternative relabelled (prop:trivperm;
+        a relabelled case of the class is a case of the class)."""
+        return memo_relabel(self, pi, lambda pi: Recovering(
+            self.bare.relabel(pi), [(a.relabel(pi), c) for a, c in self.alternatives],
+            self.buffer, self.refused))
 
     def generating_map(self, h, x=None):
         return self.bare.generating_map(h, x)

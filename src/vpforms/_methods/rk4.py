@@ -14,6 +14,7 @@ import jax.numpy as jnp
 
 from .._errors import RESULTS
 from .._guard import rk4_step
+from ._base import Stage
 
 __all__ = ["RK4"]
 
@@ -32,6 +33,11 @@ class RK4:
     def __init__(self, field: Callable[[jax.Array], jax.Array]):
         self.field = field
         self.description = f"RK4 (classical, explicit) on {getattr(field, 'name', 'field')}"
+
+    @property
+    def stages(self) -> tuple:
+        """One explicit stage, itself (stages as data, :class:`~vpforms._methods._base.Stage`)."""
+        return (Stage(self, 1.0, self),)
 
     def step(self, x: Any, h: Any) -> jax.Array:
         a = self.field
