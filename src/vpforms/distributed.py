@@ -214,7 +214,8 @@ def _choose_backend(method: Any, backend: str | None, store: str, resume: bool) 
 
 def _report(kept: int, redone: dict[int, str], results: list[dict]) -> str:
     """What a store run did with its chunks, in one line (the CLI prints it): kept (verified),
-    run, redone because they failed verification or because an earlier attempt did not finish."""
+    run, redone because they failed verification or because an earlier attempt did not finish,
+    and finished by an attempt whose result never came back (a worker killed after its marker)."""
     ran = [r for r in results if not r.get("skipped")]
     restarted = sorted((r for r in ran if r["restarted"] and r["chunk"] not in redone), key=lambda r: r["chunk"])
     fresh = len(ran) - len(restarted) - len(set(redone) & {r["chunk"] for r in ran})
@@ -228,6 +229,12 @@ def _report(kept: int, redone: dict[int, str], results: list[dict]) -> str:
                           f"{r['chunk']} from the start" for r in restarted[:5])
         more = f", and {len(restarted) - 5} more" if len(restarted) > 5 else ""
         parts.append(f"{len(restarted)} redone: an earlier attempt did not finish (chunk {where}{more})")
+    skipped = sorted(r["chunk"] for r in results if r.get("skipped"))
+    if skipped:  # an attempt finished the chunk (its marker is written) but its result was lost,
+        # e.g. its worker died after the marker: the retry found it done; verify_store checks it
+        parts.append(f"{len(skipped)} finished by an earlier attempt that did not report "
+                     f"(chunk {', '.join(map(str, skipped[:5]))}{', …' if len(skipped) > 5 else ''}; "
+                     "kept after verification)")
     discarded = [r for r in ran if r.get("discarded")]
     if discarded:
         parts.append(f"{len(discarded)} checkpoint(s) not continued (chunk {discarded[0]['chunk']}: "

@@ -19,8 +19,7 @@ import jax
 from .._map import GeneratingMap
 from ._base import GeneratingMethod
 from ._lagrangian import discrete_lagrangian
-from ._representatives import REPRESENTATIVES
-from .se_dl import DLPredictor, dl_stage_one
+from .se_dl import DLPredictor
 
 __all__ = ["DLDL"]
 
@@ -36,15 +35,7 @@ class DLDL(DLPredictor, GeneratingMethod):
 
     def __init__(self, field: Any, *, theta: float = 0.0, printed: bool = False,
                  fast: bool | None = None, newton: dict | None = None):
-        self.field = field
-        self.case = REPRESENTATIVES["DL+DL"]
-        self.order, self.symmetric = 1, False
-        self.theta, self.printed = self._theta(theta), bool(printed)
-        self.newton = {**GeneratingMethod.newton, **(newton or {})}
-        self._check_fast(fast)
-        if printed:
-            self.name = "DL+DL(printed)"
-        self._L1, self._s1 = dl_stage_one(field, self.theta, self.newton, self.printed)
+        self._init_dl(field, "DL+DL", theta, printed, fast, newton)
         _, G2 = field.dl_potentials
         kappa = 1.0 if printed else -1.0  # H²(q, p; X₂) = κ·G²(q, X₂, p), (q, p) = (x₁, x₃)
         self._L2 = discrete_lagrangian(lambda q, p, c: kappa * G2(q, c, p), self.theta, self.newton)

@@ -107,6 +107,19 @@ class DLPredictor:
             raise ValueError(f"theta must be a finite number (0 or 0.5), got {theta!r}")
         return t
 
+    def _init_dl(self, field: Any, cls: str, theta: Any, printed: bool, fast: bool | None,
+                 newton: dict | None):
+        """The traits and stage 1 (H¹ = G¹, shared by SE+DL and DL+DL) of the class ``cls``."""
+        self.field = field
+        self.case = REPRESENTATIVES[cls]
+        self.order, self.symmetric = 1, False
+        self.theta, self.printed = self._theta(theta), bool(printed)
+        self.newton = {**GeneratingMethod.newton, **(newton or {})}
+        self._check_fast(fast)
+        if printed:
+            self.name = f"{cls}(printed)"
+        self._L1, self._s1 = dl_stage_one(field, self.theta, self.newton, self.printed)
+
     def _check_fast(self, fast: bool | None):
         """``fast`` None (default): the stage form, but the printed variant (which has no stages)
         runs through the engine; ``fast=False`` asks for the engine form (the reference)."""
@@ -136,15 +149,7 @@ class SEDL(DLPredictor, GeneratingMethod):
 
     def __init__(self, field: Any, *, theta: float = 0.0, printed: bool = False,
                  fast: bool | None = None, newton: dict | None = None):
-        self.field = field
-        self.case = REPRESENTATIVES["SE+DL"]
-        self.order, self.symmetric = 1, False
-        self.theta, self.printed = self._theta(theta), bool(printed)
-        self.newton = {**GeneratingMethod.newton, **(newton or {})}
-        self._check_fast(fast)
-        if printed:
-            self.name = "SE+DL(printed)"
-        self._L1, self._s1 = dl_stage_one(field, self.theta, self.newton, self.printed)
+        self._init_dl(field, "SE+DL", theta, printed, fast, newton)
         _, self._G2 = field.dl_potentials
         self._init_predictor(0.0)  # the SE stage for vf2(G²) is the θ = 0 stage
 
