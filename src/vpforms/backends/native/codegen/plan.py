@@ -43,18 +43,30 @@ def plan(method: Any) -> list[tuple[Any, float]] | str:
     """The stages of one step of ``method``, or the reason it cannot be generated."""
     out = []
     m = _bare(method)
+    made: dict = {}  # one generated stage per distinct normal form (Ψ and Ψ* repeat in a composition)
     # a user's method (not a vpforms Method) is one stage of itself: class_stage says why it is not generated
     for st in getattr(m, "stages", None) or (Stage(m, 1.0, m),):
-        gen = _recipe_stage(st.recipe)
+        key = (id(st.recipe), st.pi, st.adjoint)
+        if key not in made:
+            made[key] = _generated(st)
+        gen = made[key]
         if isinstance(gen, str):
             return gen
-        if isinstance(gen, RK4Stage) and (st.adjoint or not st.pi.is_identity):
-            return ("the adjoint of RK4 is implicit and not generated" if st.adjoint
-                    else "RK4 is not relabelled natively")
-        if not st.pi.is_identity:
-            gen = gen.relabel(st.pi)
-        out.append((gen.adjoint() if st.adjoint else gen, st.coefficient))
+        out.append((gen, st.coefficient))
     return out
+
+
+def _generated(st: Stage):
+    """The generated stage of ``st``'s normal form, ((π, π)·recipe)^(*adjoint), or why not."""
+    gen = _recipe_stage(st.recipe)
+    if isinstance(gen, str):
+        return gen
+    if isinstance(gen, RK4Stage) and (st.adjoint or not st.pi.is_identity):
+        return ("the adjoint of RK4 is implicit and not generated" if st.adjoint
+                else "RK4 is not relabelled natively")
+    if not st.pi.is_identity:
+        gen = gen.relabel(st.pi)
+    return gen.adjoint() if st.adjoint else gen
 
 
 def unsupported_reason(method: Any) -> str | None:
