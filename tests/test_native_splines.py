@@ -100,6 +100,27 @@ def test_native_equals_jax_after_100_steps_on_spline_fields(which, cart, stell):
             assert np.all(st == RESULTS.successful), name
 
 
+@pytest.mark.slow  # JAX compiles the quadrature correction on the spline (~17 s each)
+@pytest.mark.parametrize("cls", ["S1", "S2"])
+def test_correction_maps_run_natively_on_a_spline_field_and_equal_jax(cls, cart):
+    """S1/S2 (Quispel's correction) on a spline of A: the integrand of f_c evaluates a at
+    Q(s) = (x_i + h a_i(P(s)), s, x_k), a spline at a point that holds a spline (evaluated inner
+    first in C). 20 native steps = 20 steps of the JAX per-point map ≤ 1e-12, all successful."""
+    import jax
+
+    m = vp.scheme(cart, cls, recover=False)
+    assert m.integral == "quadrature(n=32)" and select_backend(m, "auto")[0] == "native"
+    x0, h, n = CART_X0[:3], 0.02, 20
+    sn = vp.integrate(m, x0, h, n, progress=False, backend="native")
+    step = jax.jit(jax.vmap(lambda p: m._forward(p, h)[:2]))
+    x = x0
+    for _ in range(n):
+        x, st = step(x)
+        assert np.all(np.asarray(st) == RESULTS.successful)
+    assert np.all(np.asarray(sn.status) == RESULTS.successful)
+    assert np.max(np.abs(np.asarray(sn.x_final) - np.asarray(x))) <= 1e-12
+
+
 def test_a_line_leaving_the_grid_stops_with_left_domain_natively(cart):
     """The native step at the grid's face: the spline is NaN off the grid, the solve fails, and the
     Euler point is off the grid — the lane stops with RESULTS.left_domain at its own step (the
@@ -134,9 +155,11 @@ def test_auto_runs_spline_fields_natively_and_says_why_not_otherwise(cart):
     f = vp.Field.from_callable(lambda x: x[..., [1, 2, 0]], box=((-1, 1),) * 3, name="shift")
     name, why = select_backend(vp.scheme(f, "SE+SE", recover=False), "auto")
     assert name == "jax" and "JAX callable" in why
-    # S1 on a nonlinear field is Quispel's correction map, whose integral is a quadrature here
-    name, why = select_backend(vp.scheme(cart, "S1", recover=False), "auto")
-    assert name == "jax" and "correction" in why
+    # S1 on a nonlinear field is Quispel's correction map, its integral a quadrature here: native
+    assert select_backend(vp.scheme(cart, "S1", recover=False), "auto")[0] == "native"
+    # the DL engine form solves L_d through an inner Newton solve: JAX, with the reason
+    name, why = select_backend(vp.scheme(cart, "DL+DL", recover=False, fast=False), "auto")
+    assert name == "jax" and "engine form" in why
 
 
 @pytest.mark.slow  # JAX compiles RK4 on the spline (~9 s)

@@ -27,6 +27,8 @@ def _assign(targets: list[str], exprs: list[Any], subs: dict, tag: str) -> list[
     Gauss–Legendre sums in them first, by :func:`_gl_loops`."""
     exprs = [sp.sympify(e).xreplace(subs) for e in exprs]
     lines, exprs = _gl_loops(exprs, tag)
+    more, exprs = _nested_calls(exprs, tag)  # atoms inside atoms' arguments: those first
+    lines += more
     more, exprs = splines.spline_calls(exprs, tag, _printer)  # spline atoms: data read at run time
     lines += more
     more, exprs = coils.coil_calls(exprs, tag, _printer)  # coil atoms: one loop over the segments
@@ -37,6 +39,30 @@ def _assign(targets: list[str], exprs: list[Any], subs: dict, tag: str) -> list[
     lines += [f"double {s} = {_printer.doprint(e)};" for s, e in reps]
     lines += [f"double {t} = {_printer.doprint(e)};" for t, e in zip(targets, red)]
     return lines
+
+
+def _data_atoms(e: Any) -> set:
+    """The spline and coil atoms of ``e`` (their point is ``args[3:]``)."""
+    return sp.sympify(e).atoms(splines.SplineAt, coils.CoilA)
+
+
+def _nested_calls(exprs: list[Any], tag: str) -> tuple[list[str], list[Any]]:
+    """The atoms evaluated at a point that itself holds atoms (a field at the Euler point
+    x + h a(x), as the correction integrand's Q(s)): the inner ones first, innermost first, as
+    variables, so that every atom the calls below print has a plain point."""
+    lines: list[str] = []
+    while True:
+        inner = {b for e in exprs for a in _data_atoms(e) for x in a.args[3:] for b in _data_atoms(x)}
+        inner = sorted((b for b in inner if not any(_data_atoms(x) for x in b.args[3:])),
+                       key=sp.default_sort_key)
+        if not inner:
+            return lines, exprs
+        more, vals = splines.spline_calls(inner, tag, _printer)
+        lines += more
+        more, vals = coils.coil_calls(vals, tag, _printer)
+        lines += more
+        rep = dict(zip(inner, vals))
+        exprs = [sp.sympify(e).xreplace(rep) for e in exprs]
 
 
 def _gl_table(n: int) -> str:

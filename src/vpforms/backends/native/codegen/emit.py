@@ -46,6 +46,7 @@ from .cprinter import printer as _printer
 from .lanes import lane_code
 from .plan import plan
 from .potentials import (
+    CORR_C,
     CORR_S,
     DL_QPC,
     CorrectionStage,
@@ -208,7 +209,7 @@ def _map_body(st: MapStage, newton: bool, fixed: bool) -> list[str]:
 def _correction_body(st: CorrectionStage, newton: bool, fixed: bool) -> list[str]:
     """Quispel's correction map on one lane, as QuispelCorrection._forward/_backward: with roles
     (i, j, k), forward: c = h a_j(x_i, c, x_k) (guess 0), then X_j from
-    X_j − x_j − h a_j(x_i, X_j, x_k) + W(X_j) − W(c) = 0 (guess x_j + h a_j(x)), then X_i, X_k
+    X_j − x_j − h a_j(x_i, X_j, x_k) + f_c(x_i, X_j, x_k) = 0 (guess x_j + h a_j(x)), then X_i, X_k
     explicit; inverse: x_k, x_i by Newton, c, then x_j explicit. h is ``hsign``·h; the lane is
     conjugated by π (y = x·π, X = Y·π⁻¹)."""
     S = sp.Symbol
@@ -219,13 +220,13 @@ def _correction_body(st: CorrectionStage, newton: bool, fixed: bool) -> list[str
     lines = [f"double v{m + 1} = x{pi[m] + 1};" for m in range(3)]  # v = x·π
     lines.append(f"double hh = {st.hsign} * h;")
     a = [sp.sympify(e).xreplace({G.h: hh}) for e in st.a]
-    W = sp.sympify(st.W).xreplace({G.h: hh})
+    fc = sp.sympify(st.fc).xreplace({G.h: hh})
 
     def at(comp, vi, vj, vk):  # a_comp at the point with slots (i, j, k) = (vi, vj, vk)
         return a[comp].xreplace({G.x[i]: vi, G.x[j]: vj, G.x[k]: vk})
 
-    def Wc(vi, u, vk):
-        return W.xreplace({G.x[i]: vi, CORR_S: u, G.x[k]: vk})
+    def Fc(vi, u, vk):  # f_c(x_i, u, x_k) = ∫_c^u w(s) ds, from the lower limit cc
+        return fc.xreplace({G.x[i]: vi, CORR_S: u, G.x[k]: vk, CORR_C: S("cc")})
 
     z, vi, vj, vk = S("z"), S(f"v{i + 1}"), S(f"v{j + 1}"), S(f"v{k + 1}")
     solves = []
@@ -239,7 +240,7 @@ def _correction_body(st: CorrectionStage, newton: bool, fixed: bool) -> list[str
 
     if not st.inverse:
         solve("cc", S("z") - hh * at(j, vi, z, vk), "0.0", "n1")  # the lower limit c
-        solve("uj", z - vj - hh * at(j, vi, z, vk) + Wc(vi, z, vk) - Wc(vi, S("cc"), vk),
+        solve("uj", z - vj - hh * at(j, vi, z, vk) + Fc(vi, z, vk),
               vj + hh * at(j, vi, vj, vk), "n2")
         lines += _assign(["ui"], [vi + hh * at(i, vi, S("uj"), vk)], {}, "ei")
         lines += _assign(["uk"], [vk + hh * at(k, S("ui"), S("uj"), vk)], {}, "ek")
@@ -248,7 +249,7 @@ def _correction_body(st: CorrectionStage, newton: bool, fixed: bool) -> list[str
         solve("ui", z + hh * at(i, z, vj, S("uk")) - vi, vi - hh * at(i, vi, vj, S("uk")), "n2")
         solve("cc", z - hh * at(j, S("ui"), z, S("uk")), "0.0", "n3")
         lines += _assign(["uj"], [vj - hh * at(j, S("ui"), vj, S("uk"))
-                                  + Wc(S("ui"), vj, S("uk")) - Wc(S("ui"), S("cc"), S("uk"))], {}, "ej")
+                                  + Fc(S("ui"), vj, S("uk"))], {}, "ej")
     out = {i: "ui", j: "uj", k: "uk"}
     lines += [f"double Y{m + 1} = {out[m]};" for m in range(3)]
     lines += [f"X{m + 1} = Y{pinv[m] + 1};" for m in range(3)]  # X = Y·π⁻¹

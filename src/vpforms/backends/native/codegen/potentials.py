@@ -16,9 +16,11 @@ adjunction leave it unchanged, see :meth:`MapStage.relabel`).
   methods lambdify) with the matrix entries substituted;
 
 and S1/S2 on nonlinear fields, Quispel's correction maps, as a :class:`CorrectionStage` (three
-scalar equations, not a generating map) when the correction integral has a closed form; and the DL
-classes evaluated as their θ-stages (``fast=True``), as a :class:`DLStage`. Otherwise the reason
-why not (the DL engine form: L_d has no closed form; a quadrature correction).
+scalar equations, not a generating map) whose correction integral f_c is the one the JAX method
+takes: its closed form, or the same Gauss–Legendre rule on the same integrand (a
+:class:`~vpforms._quadrature.GLSum`, so on any field the emitter has expressions for: SymPy,
+splines, coils); and the DL classes evaluated as their θ-stages (``fast=True``), as a
+:class:`DLStage`. Otherwise the reason why not (the DL engine form: L_d has no closed form).
 """
 
 from __future__ import annotations
@@ -42,7 +44,7 @@ from .cprinter import c_unsupported
 from .data import DataRef
 from .vecpot import vecpot_field_exprs, vecpot_pair, vecpot_reason
 
-__all__ = ["CORR_S", "DL_QPC", "CorrectionStage", "DLStage", "MapStage", "RK4Stage", "ThetaStage",
+__all__ = ["CORR_C", "CORR_S", "DL_QPC", "CorrectionStage", "DLStage", "MapStage", "RK4Stage", "ThetaStage",
            "class_stage", "field_exprs", "field_reason", "potential_pair", "symbolic_reason"]
 
 
@@ -83,11 +85,11 @@ class MapStage:
 @dataclass(frozen=True)
 class CorrectionStage:
     """Quispel's correction map (t5vp / t5vps2, :class:`vpforms._methods.correction.QuispelCorrection`)
-    as its three scalar equations in sequence, with the closed-form correction antiderivative W:
+    as its three scalar equations in sequence, with the correction f_c = ∫_c^u w(s) ds:
     X = Ψ(x·π)·π⁻¹ where Ψ is the map at ``hsign``·h, or its inverse (``inverse``)."""
 
     a: tuple  # the field a(x) in G.x (of the field the correction map was built on)
-    W: sp.Expr  # W(x_i, s, x_k, h) in G.x[i], CORR_S, G.x[k], G.h
+    fc: sp.Expr  # f_c(x_i, u, x_k; c, h) in G.x[i], CORR_S (u), G.x[k], CORR_C (c), G.h
     roles: tuple[int, int, int]  # (i, j, k), 0-based
     newton: tuple[float, int, float]
     inverse: bool = False
@@ -103,8 +105,8 @@ class CorrectionStage:
         return replace(self, inverse=not self.inverse, hsign=-self.hsign)
 
 
-#: the integration variable of :attr:`CorrectionStage.W`
-CORR_S = sp.Symbol("s_corr")
+#: the upper and lower limits of the correction integral :attr:`CorrectionStage.fc`
+CORR_S, CORR_C = sp.Symbol("s_corr"), sp.Symbol("c_corr")
 
 #: (q, p, c): the arguments of a θ-stage's Hamiltonian :attr:`ThetaStage.H`
 DL_QPC = sp.symbols("q_dl p_dl c_dl")
@@ -261,20 +263,41 @@ def class_stage(m: Any) -> MapStage | str:
 
 
 def _correction_stage(m, a) -> CorrectionStage | str:
-    found = None if m._fc_closed is None else correction_antiderivative(m.field, m.roles)
-    if found is None:
-        return (f"{m.name}: the correction integral f_c is a quadrature for this field (its "
-                "integrand is not polynomial in s); native needs the closed form")
-    W, (s, h) = found
+    """The correction map ``m`` with the f_c its JAX ``correction`` takes: W(u) − W(c) from the
+    closed-form antiderivative, else ``line_integral`` as a SymPy expression (the same n-point
+    rule on the same integrand, its derivatives those ``jax.grad`` takes of the quadrature)."""
     i, _, k = m.roles
-    W = _to_x(m.field, [W])[0].xreplace({s: CORR_S, h: G.h})
-    bad = c_unsupported(W)
+    if m._fc_closed is not None:
+        W, (s, h) = correction_antiderivative(m.field, m.roles)  # the one the JAX method lambdified
+        W = _to_x(m.field, [W])[0].xreplace({s: CORR_S, h: G.h})
+        fc = W - W.xreplace({CORR_S: CORR_C})
+    else:
+        fc = _correction_quadrature(a, m.roles, m.quadrature_n)
+    bad = c_unsupported(fc)
     if bad:
         return f"{m.name}: the correction uses {', '.join(bad)}, which C (math.h) has no implementation of"
-    extra = W.free_symbols - {G.x[i], G.x[k], CORR_S, G.h}
+    extra = _free(fc) - {G.x[i], G.x[k], CORR_S, CORR_C, G.h}
     if extra:
         return f"{m.name}: correction has unsubstituted parameters {sorted(map(str, extra))}"
-    return CorrectionStage(a, W, tuple(m.roles), _newton(m))
+    return CorrectionStage(a, fc, tuple(m.roles), _newton(m))
+
+
+def _correction_quadrature(a, roles, n: int) -> sp.Expr:
+    """f_c = ∫_c^u w(s) ds by the n-point rule, w as ``QuispelCorrection.correction`` writes it:
+    h ∂_k a_k(Q(s)) − h ∂_k a_k(P(s)) + h² ∂_i a_i(P(s)) ∂_k a_k(Q(s)), P(s) = (x_i, s, x_k) and
+    Q(s) = (x_i + h a_i(P(s)), s, x_k) in the slots (i, j, k)."""
+    i, j, k = roles
+    xi, xk, h = G.x[i], G.x[k], G.h
+    dai, dak = sp.diff(a[i], xi), sp.diff(a[k], xk)
+
+    def at(e, vi, vj):  # e at the point with slots (i, j, k) = (vi, vj, x_k)
+        return e.xreplace({G.x[i]: vi, G.x[j]: vj})
+
+    def w(s):
+        dk_Q = at(dak, xi + h * at(a[i], xi, s), s)
+        return h * dk_Q - h * at(dak, xi, s) + h**2 * at(dai, xi, s) * dk_Q
+
+    return line_integral_expr(w, CORR_C, CORR_S, n)
 
 
 def _dl_stage(m) -> DLStage | str:

@@ -42,6 +42,7 @@ from ....grids._spline_potential import (
     affine_antiderivative,
     affine_value,
 )
+from ...._quadrature import GL_T
 from .data import HS, PACKERS, DataRef, code3, e_sub, emission, uncode3
 
 __all__ = ["C_HELPERS", "SplineAt", "domain_reason", "domain_test", "hoist", "spline_calls",
@@ -189,7 +190,11 @@ def hoist(exprs: list[Any], z: Any, printer: Any) -> list[str]:
     if em is None:
         return []
     lines: list[str] = []
-    atoms = sorted({a for e in exprs for a in sp.sympify(e).atoms(SplineAt)}, key=sp.default_sort_key)
+    # not the atoms of a quadrature's integrand (bound to its node) nor those at a point that holds
+    # atoms (evaluated in the loop's body, inner ones first)
+    atoms = sorted({a for e in exprs for a in sp.sympify(e).atoms(SplineAt)
+                    if GL_T not in a.free_symbols and not any(x.atoms(SplineAt) for x in a.args[3:])},
+                   key=sp.default_sort_key)
     whole = [a for a in atoms if z not in a.free_symbols]
     if whole:
         more, vals = spline_calls(whole, "hz", printer)
