@@ -180,7 +180,7 @@ def test_full_buffer_reruns_the_segment(abc, monkeypatch):
 
 def test_unsupported_method_falls_back_with_the_reason():
     prob = problems.get("lotka_volterra")
-    m = vp.scheme(prob.field, "S1", recover=False, integral="quadrature")  # not generated natively
+    m = vp.scheme(prob.field, "DL+DL", recover=False, fast=False)  # the engine form: not generated natively
     a = poincare_section(m, prob.x0, 0.05, 20, axis=0, value=1.0, direction=0, progress=False)
     assert a.backend == "jax" and a.backend_reason.startswith("auto: native not used (")
     with pytest.raises(NativeUnavailableError, match="native backend cannot run"):
