@@ -41,26 +41,22 @@ def _assign(targets: list[str], exprs: list[Any], subs: dict, tag: str) -> list[
     return lines
 
 
-def _data_atoms(e: Any) -> set:
-    """The spline and coil atoms of ``e`` (their point is ``args[3:]``)."""
-    return sp.sympify(e).atoms(splines.SplineAt, coils.CoilA)
-
-
 def _nested_calls(exprs: list[Any], tag: str) -> tuple[list[str], list[Any]]:
     """The atoms evaluated at a point that itself holds atoms (a field at the Euler point
     x + h a(x), as the correction integrand's Q(s)): the inner ones first, innermost first, as
     variables, so that every atom the calls below print has a plain point."""
     lines: list[str] = []
     while True:
-        inner = {b for e in exprs for a in _data_atoms(e) for x in a.args[3:] for b in _data_atoms(x)}
-        inner = sorted((b for b in inner if not any(_data_atoms(x) for x in b.args[3:])),
-                       key=sp.default_sort_key)
+        inner = {b for e in exprs for a in data.data_atoms(e) for x in a.args[3:] for b in data.data_atoms(x)}
+        inner = sorted((b for b in inner if not data.nested(b)), key=sp.default_sort_key)
         if not inner:
             return lines, exprs
         more, vals = splines.spline_calls(inner, tag, _printer)
         lines += more
         more, vals = coils.coil_calls(vals, tag, _printer)
         lines += more
+        if any(data.data_atoms(v) for v in vals):
+            raise ValueError(f"native codegen: no evaluation emitted for {inner}")
         rep = dict(zip(inner, vals))
         exprs = [sp.sympify(e).xreplace(rep) for e in exprs]
 

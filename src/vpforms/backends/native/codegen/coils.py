@@ -46,7 +46,7 @@ from ...._quadrature import GL_T, line_integral_expr
 from ....coils import CoilPotential, CoilSet
 from ....toroidal import ToroidalPotential
 from .cprinter import printer as _printer
-from .data import HS, PACKERS, DataRef, code3, e_sub, emission, uncode3
+from .data import HS, PACKERS, DataRef, code3, e_sub, emission, nested, uncode3
 
 __all__ = ["CoilA", "WholePeriods", "coil_calls", "coil_exprs", "hoist"]
 
@@ -60,6 +60,7 @@ class CoilA(sp.Function):
 
     nargs = 6
     _vp_native = True  # printed by coil_calls, not by the C printer
+    _vp_at_point = True  # data evaluated at the point args[3:] (data.data_atoms)
 
     def fdiff(self, argindex: int = 1):
         if argindex < 4:
@@ -288,8 +289,8 @@ def hoist(exprs: list[Any], z: Any, printer: Any) -> list[str]:
     if emission(required=False) is None:
         return []
     atoms = {a for e in exprs for a in sp.sympify(e).atoms(CoilA)}
-    whole = sorted((a for a in atoms if z not in a.free_symbols and GL_T not in a.free_symbols),
-                   key=sp.default_sort_key)
+    whole = sorted((a for a in atoms if z not in a.free_symbols and GL_T not in a.free_symbols
+                    and not nested(a)), key=sp.default_sort_key)
     return coil_calls(whole, "hc", printer)[0] if whole else []
 
 

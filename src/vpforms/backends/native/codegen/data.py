@@ -23,8 +23,8 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
-__all__ = ["HS", "PACKERS", "DataRef", "code3", "collecting", "data_refs", "e_sub", "emission",
-           "field_data", "read_scalars", "scope", "uncode3"]
+__all__ = ["HS", "PACKERS", "DataRef", "code3", "collecting", "data_atoms", "data_refs", "e_sub",
+           "emission", "field_data", "nested", "read_scalars", "scope", "uncode3"]
 
 #: doubles per slot of the data array (a scalar, or a header)
 HS = 16
@@ -129,6 +129,18 @@ def data_refs(expr: Any) -> list:
     slots are given in the order met, so two fields of the same structure get the same C."""
     return sorted((s for s in sp.sympify(expr).free_symbols if isinstance(s, DataRef)),
                   key=lambda r: (r.name, r.dummy_index))
+
+
+def data_atoms(e: Any) -> set:
+    """The atoms of ``e`` that evaluate run-time data at a point (spline and coil atoms, marked
+    ``_vp_at_point``: their point is ``args[3:]``)."""
+    return {f for f in sp.sympify(e).atoms(sp.Function) if getattr(type(f), "_vp_at_point", False)}
+
+
+def nested(atom: Any) -> bool:
+    """Whether ``atom`` is evaluated at a point that holds data atoms (a field at x + h a(x)):
+    its inner atoms are evaluated first (:func:`.assign._nested_calls`), never hoisted with it."""
+    return any(data_atoms(x) for x in atom.args[3:])
 
 
 def e_sub(e: Any) -> Any:

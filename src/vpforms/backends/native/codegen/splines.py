@@ -43,7 +43,7 @@ from ....grids._spline_potential import (
     affine_value,
 )
 from ...._quadrature import GL_T
-from .data import HS, PACKERS, DataRef, code3, e_sub, emission, uncode3
+from .data import HS, PACKERS, DataRef, code3, e_sub, emission, nested, uncode3
 
 __all__ = ["C_HELPERS", "SplineAt", "domain_reason", "domain_test", "hoist", "spline_calls",
            "spline_exprs"]
@@ -54,6 +54,7 @@ class SplineAt(sp.Function):
 
     nargs = 6
     _vp_native = True  # printed by spline_calls, not by the C printer
+    _vp_at_point = True  # data evaluated at the point args[3:] (data.data_atoms)
 
     def fdiff(self, argindex: int = 1):
         if argindex < 4:
@@ -193,7 +194,7 @@ def hoist(exprs: list[Any], z: Any, printer: Any) -> list[str]:
     # not the atoms of a quadrature's integrand (bound to its node) nor those at a point that holds
     # atoms (evaluated in the loop's body, inner ones first)
     atoms = sorted({a for e in exprs for a in sp.sympify(e).atoms(SplineAt)
-                    if GL_T not in a.free_symbols and not any(x.atoms(SplineAt) for x in a.args[3:])},
+                    if GL_T not in a.free_symbols and not nested(a)},
                    key=sp.default_sort_key)
     whole = [a for a in atoms if z not in a.free_symbols]
     if whole:
