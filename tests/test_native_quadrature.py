@@ -19,6 +19,7 @@ import sympy as sp
 
 import vpforms as vp
 import vpforms.problems as P
+from vpforms._case import CLASSES
 from vpforms._potentials import potential_exprs
 from vpforms._quadrature import GL_T, GLSum, _nodes_weights
 from vpforms.backends import select_backend
@@ -203,6 +204,20 @@ def test_native_quadrature_step_preserves_volume(quad_field):
         assert abs(np.linalg.det(np.stack(cols, axis=1)) - 1.0) <= 1e-8
 
 
+@native
+@pytest.mark.parametrize("pn", P.names())
+def test_every_problem_and_class_is_generated_natively(pn):
+    """No field of the library falls back to JAX for want of generated code, in any of the five
+    classes: S1/S2 on the nonlinear fields are Quispel's correction maps, whose f_c runs natively
+    in closed form or by quadrature (issue #20)."""
+    f = P.get(pn).field
+    for cls in CLASSES:
+        name, why = select_backend(vp.scheme(f, cls, recover=False), "auto")
+        assert name == "native", (cls, why)
+    quad = vp.scheme(f, "S1", recover=False, integral="quadrature") if f.linear_matrix is None else None
+    assert quad is None or select_backend(quad, "auto")[0] == "native"
+
+
 # ------------------------------------------------------------------------ slow: the wider matrix
 @native
 @pytest.mark.slow  # 14 kernels and 14 JAX methods, 2–14 s each, ~90 s in all
@@ -221,11 +236,12 @@ def test_every_problem_runs_natively_both_ways(pn, closed_form):
 
 @native
 @pytest.mark.slow  # one kernel and one JAX method per case, 7–17 s each (JAX compiles DL slowly)
-@pytest.mark.parametrize("case", ["SE+SE-relabelled", "DL+DL", "SE+DL", "DL+DL-relabelled", "order 2"])
+@pytest.mark.parametrize("case", ["SE+SE-relabelled", "DL+DL", "SE+DL", "DL+DL-relabelled", "order 2",
+                                  "S1", "S2"])
 def test_quadrature_field_every_kind_of_stage(quad_field, case):
     """A relabelled SE+SE case (its own relabelled field's quadrature), the DL classes as θ-stages
-    (fast=True) on the quadrature DL pair, relabelled too, and a symmetric composition (the
-    adjoint: the inverse map)."""
+    (fast=True) on the quadrature DL pair, relabelled too, a symmetric composition (the adjoint:
+    the inverse map), and S1/S2 (the correction integral a quadrature of the field's derivatives)."""
     pick = {"SE+SE-relabelled": ("SE+SE", (2, 3, 1)), "DL+DL-relabelled": ("DL+DL", (2, 3, 1))}
     if case in pick:
         cls, sigma = pick[case]
@@ -234,6 +250,9 @@ def test_quadrature_field_every_kind_of_stage(quad_field, case):
         assert m.case == c
     elif case == "order 2":
         m = vp.compose(_bare(quad_field, "SE+SE"), 2)
+    elif case in ("S1", "S2"):
+        m = _bare(quad_field, case)
+        assert m.integral == "quadrature(n=32)"
     else:
         m = _bare(quad_field, case)
     _agree(m, quad_field.sample_points(8), 0.02)
