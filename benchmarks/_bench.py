@@ -42,6 +42,19 @@ def best_of(fn: Callable[[], Any], repeats: int) -> tuple[float, Any]:
     return best, out
 
 
+def per_step(go: Callable[[int], Any], n: int, N: int, rounds: int) -> tuple[float, float, Any]:
+    """(ns per particle-step, compile s, the last run of 2n steps) of ``go(steps)`` on N particles:
+    the cost of n more steps, (best of 2n − best of n)/(N·n), so that a run's fixed costs (the
+    check of the initial conditions, the kernel call's set-up) cancel; compile = first call − best
+    call of n steps."""
+    t = time.perf_counter()
+    go(n)
+    first = time.perf_counter() - t
+    best, _ = best_of(lambda: go(n), rounds)
+    best2, sol = best_of(lambda: go(2 * n), rounds)
+    return (best2 - best) * 1e9 / (N * n), first - best, sol
+
+
 def interleaved(fns: dict[str, Callable[[], Any]], rounds: int) -> tuple[dict[str, float], dict[str, Any]]:
     """The best wall time of each of ``fns`` over ``rounds`` interleaved rounds (one call of each per
     round, so that a change of machine load touches all of them alike) and each one's last result."""

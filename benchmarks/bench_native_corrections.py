@@ -27,7 +27,7 @@ import time
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # benchmarks/_bench.py
-from _bench import best_of, machine, native_missing, parser, write_results
+from _bench import machine, native_missing, parser, per_step, write_results
 from bench_native_splines import tokamak_spline
 
 import vpforms
@@ -76,15 +76,10 @@ def main(argv=None) -> int:
         def go(steps, m=m, x0=x0, backend=backend):
             return vpforms.integrate(m, x0, h, steps, progress=False, backend=backend)
 
-        tc = time.perf_counter()
-        go(n)
-        first = time.perf_counter() - tc
-        best, _ = best_of(lambda: go(n), rounds)
-        best2, sol = best_of(lambda: go(2 * n), rounds)
+        per[label, cls, backend], compile_s, sol = per_step(go, n, len(x0), rounds)
         assert sol.stats["backend"] == backend, sol.stats
-        per[label, cls, backend] = (best2 - best) * 1e9 / (len(x0) * n)
         failed = int(np.sum(np.asarray(sol.status) != 0))
-        rows.append((label, cls, backend, len(x0), n, per[label, cls, backend], first - best, failed))
+        rows.append((label, cls, backend, len(x0), n, per[label, cls, backend], compile_s, failed))
         print(rows[-1], flush=True)
     lines = ["# S1/S2 correction maps with a quadrature f_c on the native backend (issue #20)", "",
              (f"recover=False, h = {h}, `vpforms.integrate`, one process; ns per particle-step = "

@@ -28,7 +28,7 @@ import time
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # benchmarks/_bench.py
-from _bench import best_of, machine, native_missing, parser, write_results
+from _bench import machine, native_missing, parser, per_step, write_results
 
 import vpforms
 from vpforms import problems
@@ -91,17 +91,10 @@ def main(argv=None) -> int:
         def go(steps, m=m, x0=x0, backend=backend):
             return vpforms.integrate(m, x0, h, steps, progress=False, backend=backend)
 
-        tc = time.perf_counter()
-        go(n)
-        first = time.perf_counter() - tc
-        best, _ = best_of(lambda: go(n), rounds)
-        best2, sol = best_of(lambda: go(2 * n), rounds)
+        per[label, backend], compile_s, sol = per_step(go, n, len(x0), rounds)
         assert sol.stats["backend"] == backend, sol.stats
-        # the cost of n more steps: a run's fixed costs (the check of the initial conditions'
-        # potentials, the kernel call's set-up) cancel
-        per[label, backend] = (best2 - best) * 1e9 / (len(x0) * n)
         failed = int(np.sum(np.asarray(sol.status) != 0))
-        rows.append((label, backend, len(x0), per[label, backend], first - best, failed))
+        rows.append((label, backend, len(x0), per[label, backend], compile_s, failed))
     ref = per["tokamak (closed form)", "native"]
     lines = ["# Spline fields on the native backend (issue #20 item 4)", "",
              (f"SE+SE (recover=False), h = {h}, `vpforms.integrate`, one process; ns per "
