@@ -196,22 +196,28 @@ def _finite(X):
     return jnp.where(jnp.all(jnp.isfinite(X)), 0, 3).astype(jnp.int32)
 
 
+def correction_integrand(a, symbols, roles, s, h):
+    """w(s) of f_c = ∫_c^u w(s) ds as SymPy (what :meth:`QuispelCorrection.correction` integrates):
+    h ∂_k a_k(Q(s)) − h ∂_k a_k(P(s)) + h² ∂_i a_i(P(s)) ∂_k a_k(Q(s)) with P(s) = (x_i, s, x_k),
+    Q(s) = (x_i + h a_i(P(s)), s, x_k) in the slots (i, j, k); ``a`` in ``symbols``. The closed
+    form integrates it; the native backend sums it by the quadrature rule."""
+    i, j, k = roles
+    sym = symbols
+    P = {sym[j]: s}
+    Q = {sym[i]: sym[i] + h * a[i].xreplace(P), sym[j]: s}
+    dk = sp.diff(a[k], sym[k])
+    di = sp.diff(a[i], sym[i])
+    return h * dk.xreplace(Q) - h * dk.xreplace(P) + h**2 * di.xreplace(P) * dk.xreplace(Q)
+
+
 def correction_antiderivative(field, roles):
     """(W, (s, h)): W(x_i, s, x_k, h) an antiderivative in s of the integrand of f_c, a SymPy
     expression in ``field.symbols[i]``, ``s``, ``field.symbols[k]``, ``h``; or None (no SymPy /
     integrand not polynomial in s). The native backend generates C from it."""
     if field.exprs is None or field.symbols is None:
         return None
-    i, j, k = roles
-    sym = field.symbols
-    e = field.exprs
     s, h = sp.Dummy("s", real=True), sp.Dummy("h", real=True)
-    P = {sym[j]: s}
-    ai_P = e[i].xreplace(P)
-    Q = {sym[i]: sym[i] + h * ai_P, sym[j]: s}
-    dk = sp.diff(e[k], sym[k])
-    di = sp.diff(e[i], sym[i])
-    w = sp.expand(h * dk.xreplace(Q) - h * dk.xreplace(P) + h**2 * di.xreplace(P) * dk.xreplace(Q))
+    w = sp.expand(correction_integrand(field.exprs, field.symbols, roles, s, h))
     if w == 0:
         W = sp.Integer(0)
     elif w.is_polynomial(s):

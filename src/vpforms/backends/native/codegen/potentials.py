@@ -32,7 +32,7 @@ import sympy as sp
 
 from ...._case import Case
 from ...._methods._linear import LinearRecipeMethod
-from ...._methods.correction import QuispelCorrection, correction_antiderivative
+from ...._methods.correction import QuispelCorrection, correction_antiderivative, correction_integrand
 from ...._methods.dl_dl import DLDL
 from ...._methods.se_dl import SEDL
 from ...._methods.se_se import SESE
@@ -283,21 +283,9 @@ def _correction_stage(m, a) -> CorrectionStage | str:
 
 
 def _correction_quadrature(a, roles, n: int) -> sp.Expr:
-    """f_c = ∫_c^u w(s) ds by the n-point rule, w as ``QuispelCorrection.correction`` writes it:
-    h ∂_k a_k(Q(s)) − h ∂_k a_k(P(s)) + h² ∂_i a_i(P(s)) ∂_k a_k(Q(s)), P(s) = (x_i, s, x_k) and
-    Q(s) = (x_i + h a_i(P(s)), s, x_k) in the slots (i, j, k)."""
-    i, j, k = roles
-    xi, xk, h = G.x[i], G.x[k], G.h
-    dai, dak = sp.diff(a[i], xi), sp.diff(a[k], xk)
-
-    def at(e, vi, vj):  # e at the point with slots (i, j, k) = (vi, vj, x_k)
-        return e.xreplace({G.x[i]: vi, G.x[j]: vj})
-
-    def w(s):
-        dk_Q = at(dak, xi + h * at(a[i], xi, s), s)
-        return h * dk_Q - h * at(dak, xi, s) + h**2 * at(dai, xi, s) * dk_Q
-
-    return line_integral_expr(w, CORR_C, CORR_S, n)
+    """f_c = ∫_c^u w(s) ds by the n-point rule (``line_integral`` as SymPy) of the integrand
+    :func:`~vpforms._methods.correction.correction_integrand`, the one the JAX method integrates."""
+    return line_integral_expr(lambda s: correction_integrand(a, G.x, roles, s, G.h), CORR_C, CORR_S, n)
 
 
 def _dl_stage(m) -> DLStage | str:
