@@ -17,6 +17,7 @@ import pytest
 import sympy as sp
 
 import vpforms as vp
+from vpforms._quadrature import DEFAULT_N
 import vpforms.problems as P
 from vpforms import RESULTS
 from vpforms.backends import NativeUnavailableError, select_backend
@@ -445,10 +446,10 @@ def test_quadrature_correction_runs_natively_and_equals_jax(fields, cls):
     its inverse (the adjoint) and a relabelled case equal JAX to rounding, statuses included."""
     f, x0 = fields["lotka_volterra"]
     m = vp.scheme(f, cls, recover=False, integral="quadrature")
-    assert m.integral == "quadrature(n=32)"
+    assert m.integral == f"quadrature(n={DEFAULT_N})"
     assert select_backend(m, "auto")[0] == "native"
     src = kernel_source(m)
-    assert "VP_GL_T32[" in src  # a loop over the nodes, not a closed form
+    assert f"VP_GL_T{DEFAULT_N}[" in src  # a loop over the nodes, not a closed form
     for meth in (m, m.adjoint(), m.relabel((2, 3, 1))):
         _agree(vp.integrate(meth, x0, 0.05, 40, save_every=10, backend="native"),
                vp.integrate(meth, x0, 0.05, 40, save_every=10, backend="jax"))

@@ -20,6 +20,7 @@ import pytest
 from sympy.core.function import ArgumentIndexError
 
 import vpforms as vp
+from vpforms._quadrature import DEFAULT_N
 from vpforms import RESULTS
 from vpforms.backends import select_backend
 from vpforms.backends.native import build as nbuild
@@ -200,7 +201,7 @@ def test_s1_runs_natively_on_coils_and_is_consistent(tor):
     from RK4's by O(h²) (log–log slope of the local error over three h: ≥ 1.8), all succeed, and
     det J = 1 to the central differences' error (≤ 1e-8; without f_c it is 1.2e-4)."""
     m = vp.scheme(tor, "S1", recover=False)
-    assert m.integral == "quadrature(n=32)" and select_backend(m, "auto")[0] == "native"
+    assert m.integral == f"quadrature(n={DEFAULT_N})" and select_backend(m, "auto")[0] == "native"
     x0 = np.asarray(to_toroidal(_XYZ0))
     hs = np.array([0.04, 0.02, 0.01])
     err = []

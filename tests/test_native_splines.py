@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 import vpforms as vp
+from vpforms._quadrature import DEFAULT_N
 from vpforms import RESULTS
 from vpforms.backends import select_backend
 from vpforms.backends.native.codegen import kernel_parts
@@ -109,7 +110,7 @@ def test_correction_maps_run_natively_on_a_spline_field_and_equal_jax(cls, cart)
     import jax
 
     m = vp.scheme(cart, cls, recover=False)
-    assert m.integral == "quadrature(n=32)" and select_backend(m, "auto")[0] == "native"
+    assert m.integral == f"quadrature(n={DEFAULT_N})" and select_backend(m, "auto")[0] == "native"
     x0, h, n = CART_X0[:3], 0.02, 20
     sn = vp.integrate(m, x0, h, n, progress=False, backend="native")
     step = jax.jit(jax.vmap(lambda p: m._forward(p, h)[:2]))
