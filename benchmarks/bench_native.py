@@ -3,7 +3,9 @@
 In one process, side by side (the machine is shared: only ratios measured in one run count):
 
 1. native SE+SE (closed-form shears generated from SymPy) vs a hand-written C three-shear kernel
-   of the same map (compiled in this run with the same flags, same block/OpenMP/SIMD layout);
+   of the same map (compiled in this run with the same flags, same block/OpenMP/SIMD layout),
+   and the same generated kernel without the consistency guard (issue #23: a(x) per step), which
+   the hand-written one does not have;
 2. the native generic engine: the same SE+SE map through its two scalar Newton solves;
 3. native order-4 compositions (Suzuki's 5 symmetric pairs; Blanes–Moan S6, 12 stages of SE+SE and
    its adjoint) vs native RK4 at equal accuracy: for each, the largest h in a ladder with median
@@ -97,8 +99,11 @@ def main(argv=None) -> int:
     bm = vp.compose(sese, 4, "blanes_moan")
     dl = vp.scheme(f, "DL+DL", theta=0.5, fast=True)
     rk4 = vp.RK4(f)
+    # the same bare SE+SE kernel without the consistency guard of issue #23 (what the guard costs)
+    unguarded = vp.scheme(f, "SE+SE", recover=False)
+    unguarded.guard_kappa = None
     t = time.perf_counter()
-    for m in (sese, o4, bm, dl, rk4):
+    for m in (sese, o4, bm, dl, rk4, unguarded):
         run_points(m, x0[:8], h, [0, 1])  # generate + compile (or load from the cache)
     run_points(sese, x0[:8], h, [0, 1], engine="newton")
     ref = build.build(REFERENCE_C, REFERENCE_CDEF)
@@ -119,6 +124,7 @@ def main(argv=None) -> int:
     ps = a.n * a.steps
     t_ref, _ = best_of(lambda: run_ref(x0, a.steps), a.repeats)
     t_se, _ = best_of(lambda: run_points(sese, x0, h, [0, a.steps]), a.repeats)
+    t_ng, _ = best_of(lambda: run_points(unguarded, x0, h, [0, a.steps]), a.repeats)
     t_nw, _ = best_of(lambda: run_points(sese, x0, h, [0, a.steps], engine="newton"), a.repeats)
     t_o4, _ = best_of(lambda: run_points(o4, x0, h, [0, a.steps]), a.repeats)
     t_bm, _ = best_of(lambda: run_points(bm, x0, h, [0, a.steps]), a.repeats)
@@ -127,6 +133,7 @@ def main(argv=None) -> int:
     ns = lambda t, n=ps: 1e9 * t / n  # noqa: E731
     rows.append(("hand-written C three-shear (reference)", ns(t_ref), 1.0))
     rows.append(("native SE+SE (closed form, generated)", ns(t_se), t_se / t_ref))
+    rows.append(("the same without the consistency guard (`guard_kappa=None`)", ns(t_ng), t_ng / t_ref))
     rows.append(("native generic engine (2 Newton solves, same map)", ns(t_nw), t_nw / t_ref))
     rows.append(("native order 4 (Suzuki, 10 stages)", ns(t_o4), t_o4 / t_ref))
     rows.append(("native order 4 (Blanes–Moan S6, 12 stages)", ns(t_bm), t_bm / t_ref))
