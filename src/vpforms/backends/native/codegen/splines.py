@@ -216,7 +216,8 @@ def hoist(exprs: list[Any], z: Any, printer: Any) -> list[str]:
         if em.find(key) is None:
             em.count += 1
             q = f"ln{em.count}"
-            lines.append(f"double {q}_L[{k[moving[0]] + 1}]; int64_t {q}_c = -1;")
+            kf = k[moving[0]] + 1
+            lines.append(f"double {q}_L[{kf}], {q}_P[{kf}]; vp_seg_t {q}_s = VP_SEG0;")
             em.scopes[-1][key] = q
     return lines
 
@@ -256,15 +257,20 @@ def spline_calls(exprs: list[Any], tag: str, printer: Any) -> tuple[list[str], l
             f = lined[0]
             q = em.find(_line_key(a, f, printer))
             k, o = a.degrees, a.orders
-            ax = [_axis(em, a.args[0], b, k[b], a.args[3 + b], o[b], printer, lines) for b in range(3)]
+            ax = {b: _axis(em, a.args[0], b, k[b], a.args[3 + b], o[b], printer, lines)
+                  for b in range(3) if b != f}
             fixed = [ax[b][1] for b in range(3) if b != f]
-            idx = ", ".join(ax[b][0] for b in range(3))
+            idx = ", ".join(f"{q}_s.i" if b == f else ax[b][0] for b in range(3))
+            h = f"fd + {HS * em.slot(a.args[0])}"
             em.count += 1
             v = sp.Symbol(f"{tag}_l{em.count}")
-            lines += [(f"if ({ax[f][0]} != {q}_c) {{ vp_line(fd, fd + {HS * em.slot(a.args[0])}, "
-                       f"{k[0]}, {k[1]}, {k[2]}, {idx}, {f}, {fixed[0]}, {fixed[1]}, {q}_L); "
-                       f"{q}_c = {ax[f][0]}; }}"),
-                      f"double {v} = vp_c2({k[f]}, {ax[f][1]}, {q}_L);"]
+            # the moving axis's cell, kept while the argument stays in it; on entering a cell, the
+            # line there and its polynomial in y (vp_seg, vp_lpoly); then Horner for d^o/dy^o
+            lines += [(f"double {v}_y; if (vp_seg(fd, {h}, {f}, {k[f]}, "
+                       f"{printer.doprint(e_sub(a.args[3 + f]))}, &{q}_s, &{v}_y)) {{ "
+                       f"vp_line(fd, {h}, {k[0]}, {k[1]}, {k[2]}, {idx}, {f}, {fixed[0]}, {fixed[1]}, "
+                       f"{q}_L); vp_lpoly(fd, {h}, {f}, {k[f]}, {q}_s.i, {q}_L, {q}_P); }}"),
+                      f"double {v} = vp_pn({k[f]}, {o[f]}, {q}_P, {v}_y);"]
             rep[a] = v
             continue
         groups.setdefault((a.args[0], a.args[3:]), []).append(a)
@@ -400,6 +406,49 @@ static inline _VP_INLINE void vp_line(const double *fd, const double *h, int k0,
                 L[f == 0 ? x : y] += (f == 0 ? Na[y] : Na[x]) * s;
             }
     }
+}
+
+/* the cell of z on axis a, kept by a hoisted line (hoist) while z stays in it: [lo, hi) = [t_i,
+   t_i+1) and the shift sh that wrapped z into the base period (0 on a non-periodic axis, so that
+   y = z - t_i is vp_cell's); 1 when z entered another cell (vp_cell then), or is off the grid
+   (y NaN, the cell never kept) */
+typedef struct { double lo, hi, sh; int64_t i; } vp_seg_t;
+#define VP_SEG0 {1.0, 0.0, 0.0, -1}
+static inline _VP_INLINE int vp_seg(const double *fd, const double *h, int a, int k, double z,
+                                    vp_seg_t *s, double *y) {
+    double w = z - s->sh;
+    if (w >= s->lo && w < s->hi) { *y = w - s->lo; return 0; }
+    double yy; int64_t i = vp_cell(fd, h, a, k, z, &yy);
+    const double *t = fd + (int64_t)h[a];
+    s->i = i; s->lo = t[i]; s->hi = t[i + 1];
+    s->sh = h[10 + a] > 0.0 ? z - (yy + t[i]) : 0.0;
+    *y = yy;
+    return 1;
+}
+
+/* a line's polynomial in y in cell i of axis a: c[p] = sum_r L[r] P[i - k, r, p] (the cell's
+   B-spline polynomials weighted by the line's coefficients) */
+static inline _VP_INLINE void vp_lpoly(const double *fd, const double *h, int a, int k, int64_t i,
+                                       const double *L, double *c) {
+    const double *P = fd + (int64_t)h[3 + a] + (i - k) * (k + 1) * (k + 1);
+    for (int p = 0; p <= k; p++) {
+        double s = 0.0;
+        for (int r = 0; r <= k; r++) s += L[r] * P[r * (k + 1) + p];
+        c[p] = s;
+    }
+}
+
+/* the n-th derivative of sum_p c[p] y^p (Horner, term by term as vp_basis) */
+static inline _VP_INLINE double vp_pn(int k, int n, const double *c, double y) {
+    double f = 1.0;
+    for (int j = 0; j < n; j++) f *= (double)(k - j);
+    double v = f * c[k];
+    for (int p = k - 1; p >= n; p--) {
+        double g = 1.0;
+        for (int j = 0; j < n; j++) g *= (double)(p - j);
+        v = v * y + g * c[p];
+    }
+    return (n == k) ? v + 0.0 * y : v;  /* NaN off the grid, also for a constant */
 }
 
 /* then over axis 1 with N1: V[c] */
