@@ -11,6 +11,8 @@ One tmp cache directory per module (env ``VPFORMS_NATIVE_CACHE``).
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -161,6 +163,46 @@ def test_auto_runs_spline_fields_natively_and_says_why_not_otherwise(cart):
     # the DL engine form solves L_d through an inner Newton solve: JAX, with the reason
     name, why = select_backend(vp.scheme(cart, "DL+DL", recover=False, fast=False), "auto")
     assert name == "jax" and "engine form" in why
+
+
+def _torus_points(pot, s):
+    """Points on interior knots, on the periodic seam from both sides and far round the torus
+    both ways (the grid of ``pot``, the knots of its spline ``s``)."""
+    (u0, u1), (p0, p1), (z0, z1) = pot.grid_box
+    T = p1 - p0
+    tu, tp, tz = (np.asarray(t) for t in s.knots)
+    return np.array([
+        [tu[6], tp[5], tz[7]],  # interior knots on every axis
+        [tu[5], p0, 0.02], [tu[5], p1, 0.02], [tu[6], p1 - 1e-9, tz[6]],  # the seam, both sides
+        [tu[8], 0.3 + 1000 * T, 0.03], [tu[8], -0.3 - 50 * T, -0.03],  # far round, both ways
+    ])
+
+
+@pytest.mark.slow  # JAX compiles each case on the spline (~10 s)
+@pytest.mark.parametrize("case", [0, 1])
+def test_newton_solves_keep_the_cell_exactly_on_seams_knots_and_far_round(stell, case):
+    """The implicit SE+SE solves iterate along one axis with the line of the coefficients kept
+    while the iterate stays in its cell (``vp_seg``: the cell and the wrap of the periodic axis
+    kept, the line's polynomial in y evaluated by Horner). From knots, the seam from both sides
+    and a thousand periods round, with a step long enough that iterates cross cells: native = JAX
+    to rounding relative to the step, every step successful. Two SE+SE cases whose solves move
+    along all three axes (u, the periodic φ, Z)."""
+    f = stell.field
+    pot = f.inside.__self__
+    x0 = _torus_points(pot, pot.splines[1])
+    cases = [c for c in vp.cases() if c.cls == "SE+SE"]
+    m = vp.scheme(f, cases[0] if case == 0 else cases[-1], recover=False)
+    axes = set(re.findall(r"vp_seg\(fd, fd \+ \d+, (\d)", kernel_parts(m)[0]))
+    assert axes == ({"0", "1"} if case == 0 else {"1", "2"})  # the solves' axes, kept cells
+    sn = vp.integrate(m, x0, 0.05, 3, progress=False, backend="native")
+    sj = vp.integrate(m, x0, 0.05, 3, progress=False, backend="jax")
+    assert sn.stats["backend"] == "native"
+    assert np.all(np.asarray(sn.status) == RESULTS.successful)
+    assert np.array_equal(np.asarray(sn.status), np.asarray(sj.status))
+    dn, dj = np.asarray(sn.xs)[:, -1] - x0, np.asarray(sj.xs)[:, -1] - x0
+    # relative to the step, and the resolution of the coordinate itself (φ ≈ 1257 far round:
+    # spacing 2.3e-13, where the two backends' sums may round apart)
+    assert np.all(np.abs(dn - dj) <= 1e-12 * np.max(np.abs(dj)) + 4 * np.spacing(np.abs(x0) + 1))
 
 
 @pytest.mark.slow  # JAX compiles RK4 on the spline (~9 s)

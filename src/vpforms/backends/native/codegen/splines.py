@@ -317,6 +317,13 @@ PACKERS[TensorSpline] = _pack
 
 
 C_HELPERS = r"""
+/* x wrapped into [t_k, t_k + T) on a periodic axis (T > 0; jnp.mod: fmod, + T where negative) */
+static inline _VP_INLINE double vp_wrap(const double *t, double T, int k, double x) {
+    if (!(T > 0.0)) return x;
+    double r = fmod(x - t[k], T);
+    return t[k] + ((r != 0.0 && r < 0.0) ? r + T : r);
+}
+
 /* axis a of the spline with header h at x: the knot interval i = clip(#{t <= x} - 1, k, m - 1)
    and y = x - t_i; on a periodic axis x wraps into [t_k, t_k + T) (jnp.mod), off a
    non-periodic axis's range [t_k, t_m] y is NaN (the value and every derivative) */
@@ -325,10 +332,7 @@ static inline _VP_INLINE int64_t vp_cell(const double *fd, const double *h, int 
     const double *t = fd + (int64_t)h[a];
     int64_t m = (int64_t)h[7 + a];
     double T = h[10 + a], lo = t[k];
-    if (T > 0.0) {
-        double r = fmod(x - lo, T);
-        x = lo + ((r != 0.0 && r < 0.0) ? r + T : r);
-    }
+    x = vp_wrap(t, T, k, x);
     double xs = x;
     if (!(T > 0.0) && !(x >= lo && x <= t[m])) x = NAN;
     /* the largest i in [k, m - 1] with t_i <= xs (k if none, or NaN): from the interval a uniform
@@ -408,21 +412,18 @@ static inline _VP_INLINE void vp_line(const double *fd, const double *h, int k0,
     }
 }
 
-/* the cell of z on axis a, kept by a hoisted line (hoist) while z stays in it: [lo, hi) = [t_i,
-   t_i+1) and the shift sh that wrapped z into the base period (0 on a non-periodic axis, so that
-   y = z - t_i is vp_cell's); 1 when z entered another cell (vp_cell then), or is off the grid
-   (y NaN, the cell never kept) */
-typedef struct { double lo, hi, sh; int64_t i; } vp_seg_t;
-#define VP_SEG0 {1.0, 0.0, 0.0, -1}
+/* the cell of z on axis a, kept by a hoisted line (hoist) while z (wrapped, vp_wrap) stays in
+   it: [lo, hi) = [t_i, t_i+1), y = z - t_i as vp_cell gives it; 1 when z entered another cell
+   (vp_cell then), or is off the grid (y NaN, the cell never kept) */
+typedef struct { double lo, hi; int64_t i; } vp_seg_t;
+#define VP_SEG0 {1.0, 0.0, -1}
 static inline _VP_INLINE int vp_seg(const double *fd, const double *h, int a, int k, double z,
                                     vp_seg_t *s, double *y) {
-    double w = z - s->sh;
-    if (w >= s->lo && w < s->hi) { *y = w - s->lo; return 0; }
-    double yy; int64_t i = vp_cell(fd, h, a, k, z, &yy);
     const double *t = fd + (int64_t)h[a];
-    s->i = i; s->lo = t[i]; s->hi = t[i + 1];
-    s->sh = h[10 + a] > 0.0 ? z - (yy + t[i]) : 0.0;
-    *y = yy;
+    double w = vp_wrap(t, h[10 + a], k, z);
+    if (w >= s->lo && w < s->hi) { *y = w - s->lo; return 0; }
+    s->i = vp_cell(fd, h, a, k, z, y);
+    s->lo = t[s->i]; s->hi = t[s->i + 1];
     return 1;
 }
 
