@@ -42,16 +42,21 @@ def best_of(fn: Callable[[], Any], repeats: int) -> tuple[float, Any]:
     return best, out
 
 
-def per_step(go: Callable[[int], Any], n: int, N: int, rounds: int) -> tuple[float, float, Any]:
+def per_step(go: Callable[[int], Any], n: int, N: int, rounds: int,
+             strict: bool = True) -> tuple[float, float, Any]:
     """(ns per particle-step, compile s, the last run of 2n steps) of ``go(steps)`` on N particles:
     the cost of n more steps, (best of 2n − best of n)/(N·n), so that a run's fixed costs (the
     check of the initial conditions, the kernel call's set-up) cancel; compile = first call − best
-    call of n steps."""
+    call of n steps. ``strict`` (off in smoke mode only): an error, never a number, where the 2n
+    steps do not take measurably longer than the n (fixed costs and noise dominate)."""
     t = time.perf_counter()
     go(n)
     first = time.perf_counter() - t
     best, _ = best_of(lambda: go(n), rounds)
     best2, sol = best_of(lambda: go(2 * n), rounds)
+    if strict and not best2 > 1.2 * best:  # n more steps must cost something measurable next to the fixed costs
+        raise RuntimeError(f"{n} more steps took {best2 - best:+.3f} s next to {best:.3f} s for {n}: the "
+                           "run's fixed costs and the machine's noise dominate; take more steps")
     return (best2 - best) * 1e9 / (N * n), first - best, sol
 
 

@@ -160,6 +160,17 @@ def test_bench_native_splines_smoke(tmp_path):
 
 
 @pytest.mark.skipif(not _NATIVE_OK, reason=f"native backend unavailable: {_NATIVE_WHY}")
+def test_bench_spline_floor_smoke(tmp_path, monkeypatch):
+    """The floor reads the blocks the generated SE+SE step reads (parsed from its C: the guard's
+    three components of A at x, three splines in each of the two solves)."""
+    monkeypatch.setenv("VPFORMS_NATIVE_CACHE", str(tmp_path / "cache"))
+    text = _smoke("bench_spline_floor", tmp_path)
+    assert _row_labels(text) == ["tokamak (closed form), native step", "tokamak (spline of A), native step",
+                                 "floor: the step's spline reads, nothing else"]
+    assert "9 (spline, point) blocks" in text and "3 in solve 1, 3 in solve 2 (512 coefficients)" in text
+
+
+@pytest.mark.skipif(not _NATIVE_OK, reason=f"native backend unavailable: {_NATIVE_WHY}")
 def test_bench_native_sections_smoke(tmp_path, monkeypatch):
     monkeypatch.setenv("VPFORMS_NATIVE_CACHE", str(tmp_path / "cache"))
     text = _smoke("bench_native_sections", tmp_path)

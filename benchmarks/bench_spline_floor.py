@@ -1,0 +1,193 @@
+"""The cost floor of a spline step: what reading the spline costs, without solving anything
+(issue #20, the ratio targets), written to results_spline_floor.md.
+
+A step of SE+SE on a spline of A evaluates the spline at three points: the guard's field B(x)
+needs every component of A at x, and each implicit solve evaluates its potentials at its own
+point. Whatever the code, each (spline, point) pair reads the (k₀+1)(k₁+1)(k₂+1) coefficients of
+its cell (64 for a tricubic spline) and contracts them with the three bases. This script times
+exactly that and nothing else, in C compiled with the backend's flags, on the same data the
+native kernel gets (``fd``, the header layout of :mod:`vpforms.backends.native.codegen.splines`):
+
+* the pairs are read off the generated kernel: the splines the guard reads at x, and the splines
+  each Newton loop reads (``vp_seg``, the kept cell of each hoisted line);
+* the points are the field lines' own: x, and for the solves the state after one native step
+  (within one step of the solves' points: the same cells, the same cache behaviour);
+* per pair: the cell on each axis (the uniform guess, clipped), the three bases (Horner on the
+  cell polynomials) and the contraction; nothing is shared between pairs.
+
+Rows (one process, 2 OpenMP threads, ns per particle-step): the closed-form tokamak step (native),
+the spline step (native), and the floor. The floor ÷ closed form is the least ratio any
+implementation that evaluates the spline at those points could reach.
+
+    PYTHONPATH=src python benchmarks/bench_spline_floor.py [--smoke]
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import sys
+import time
+
+import numpy as np
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # benchmarks/_bench.py
+from _bench import best_of, machine, native_missing, parser, per_step, write_results
+from bench_native_splines import tokamak_spline
+
+import vpforms
+from vpforms import problems
+from vpforms.backends.native.build import build
+from vpforms.backends.native.codegen import kernel_parts
+from vpforms.backends.native.codegen.data import HS
+from vpforms.toroidal import to_toroidal
+
+CDEF = ("void vp_floor(int64_t N, const double *x, const double *X, const double *fd, int64_t n, "
+        "double *out);")
+
+
+def pairs(source: str) -> tuple[set[int], list[set[int]]]:
+    """(the header offsets the guard reads at x, per Newton loop the offsets it reads) of a
+    generated spline kernel."""
+    step = source[source.index("int vp_step_exact("):]
+    guard = {int(o) for o in re.findall(r"vp_c0\(fd, fd \+ (\d+),", step[:step.index("vp_exact0(")])}
+    loops = [{int(o) for o in re.findall(r"vp_seg\(fd, fd \+ (\d+),", body)}
+             for body in re.findall(r"for \(int it = 0;.*?if \(n\d+_st == -1\)", source, re.S)]
+    return guard, loops
+
+
+def degrees(fd: np.ndarray, off: int) -> tuple[int, int, int]:
+    """The degrees of the spline whose header is at ``off``: its knot vectors are stored one
+    after the other (header: knot offsets h[0:3], cell tables from h[3]), m + k + 1 knots each."""
+    h = fd[off:off + HS]
+    n_knots = [int(h[1] - h[0]), int(h[2] - h[1]), int(h[3] - h[2])]
+    return tuple(n - int(m) - 1 for n, m in zip(n_knots, h[7:10]))
+
+
+def floor_source(blocks: list[tuple[int, int, tuple[int, int, int]]]) -> str:
+    """C of ``vp_floor``: the loop order of the kernel (blocks of 64 lines, all steps of a block,
+    then the next), per line and step each (header offset, point 0 = x | 1 = X, degrees) block
+    evaluated in full, its degrees compile-time constants (every loop unrolls). Each step's point
+    moves by 1e-300 × the previous step's sum, so that no compiler hoists the reads out of the
+    step loop."""
+    body = []
+    for j, (off, pt, k) in enumerate(blocks):
+        p = "x" if pt == 0 else "X"
+        axes = []
+        for a in range(3):
+            axes.append(f"""          {{ const double *t = fd + (int64_t)h[{a}]; int64_t m = (int64_t)h[{7 + a}];
+            double T = h[{10 + a}], v = {p}[3 * q + {a}] + eps, lo = t[{k[a]}];
+            if (T > 0.0) v = v - T * floor((v - lo) / T);
+            double g = (v - lo) * h[{13 + a}], gm = (double)(m - {1 + k[a]});
+            g = g < 0.0 ? 0.0 : g < gm ? g : gm;
+            i{a} = {k[a]} + (int64_t)g;
+            double y = v - t[i{a}];
+            const double *P = fd + (int64_t)h[{3 + a}] + (i{a} - {k[a]}) * {(k[a] + 1) ** 2};
+            for (int r = 0; r <= {k[a]}; r++) {{
+              double s = P[r * {k[a] + 1} + {k[a]}];
+              for (int c = {k[a] - 1}; c >= 0; c--) s = s * y + P[r * {k[a] + 1} + c];
+              N{a}[r] = s;
+            }} }}""")
+        body.append(f"""        {{ const double *h = fd + {off}; double N0[{k[0] + 1}], N1[{k[1] + 1}], N2[{k[2] + 1}];
+          int64_t i0, i1, i2;
+{chr(10).join(axes)}
+          const double *c = fd + (int64_t)h[6];
+          int64_t m1 = (int64_t)h[8], m2 = (int64_t)h[9];
+          const double *b = c + ((i0 - {k[0]}) * m1 + (i1 - {k[1]})) * m2 + (i2 - {k[2]});
+          double s = 0.0;
+          for (int u = 0; u <= {k[0]}; u++)
+            for (int w = 0; w <= {k[1]}; w++) {{
+              double r = 0.0;
+              for (int z = 0; z <= {k[2]}; z++) r += N2[z] * b[(u * m1 + w) * m2 + z];
+              s += N0[u] * N1[w] * r;
+            }}
+          acc += s; }}  /* block {j} */""")
+    return f"""
+#include <math.h>
+#include <stdint.h>
+void vp_floor(int64_t N, const double *x, const double *X, const double *fd, int64_t n, double *out) {{
+    int64_t nb = (N + 63) / 64;
+    #pragma omp parallel for schedule(dynamic, 1)
+    for (int64_t blk = 0; blk < nb; blk++) {{
+        int64_t hi = blk * 64 + 64 < N ? blk * 64 + 64 : N;
+        for (int64_t k = 0; k < n; k++)
+            for (int64_t q = blk * 64; q < hi; q++) {{
+                double acc = 0.0, eps = 1e-300 * out[q];
+{chr(10).join(body)}
+                out[q] = acc;
+            }}
+    }}
+}}
+"""
+
+
+def main(argv=None) -> int:
+    args = parser(__doc__, "results_spline_floor.md", rounds=3).parse_args(argv)
+    t0 = time.perf_counter()
+    if native_missing():
+        return 1
+    smoke = args.smoke
+    rounds = 1 if smoke else args.rounds
+    N, n, h = (200, 5, 0.01) if smoke else (20_000, 100, 0.01)
+    grid = (12, 8, 12) if smoke else (48, 32, 48)
+    tok = problems.get("tokamak")
+    x_cart = tok.initial_conditions(N, seed=0)
+    x_tor = np.ascontiguousarray(np.asarray(to_toroidal(x_cart)), dtype=np.float64)
+    spl = tokamak_spline(*grid)
+    m_spl = vpforms.scheme(spl, "SE+SE", recover=False)
+    m_tok = vpforms.scheme(tok.field, "SE+SE", recover=False)
+    per = {}
+    for label, m, x0 in (("tokamak (closed form), native step", m_tok, x_cart),
+                         ("tokamak (spline of A), native step", m_spl, x_tor)):
+        def go(steps, m=m, x0=x0):
+            return vpforms.integrate(m, x0, h, steps, progress=False, backend="native")
+
+        per[label], _, sol = per_step(go, n, N, rounds, strict=not smoke)
+        assert sol.stats["backend"] == "native" and np.all(np.asarray(sol.status) == 0)
+    source, fd = kernel_parts(m_spl)
+    guard, loops = pairs(source)
+    assert guard and len(loops) == 2 and all(loops), (guard, loops)
+    blocks = [(off, 0, degrees(fd, off)) for off in sorted(guard)]
+    blocks += [(off, 1, degrees(fd, off)) for loop in loops for off in sorted(loop)]
+    X = np.ascontiguousarray(np.asarray(vpforms.integrate(m_spl, x_tor, h, 1, progress=False,
+                                                          backend="native").x_final), dtype=np.float64)
+    mod = build(floor_source(blocks), CDEF)
+    lib, ffi = mod.lib, mod.ffi
+    fdc = np.ascontiguousarray(fd, dtype=np.float64)
+    out = np.zeros(N)
+    ptr = [ffi.cast("double *", a.ctypes.data) for a in (x_tor, X, fdc, out)]
+
+    def floor_call():
+        lib.vp_floor(N, ptr[0], ptr[1], ptr[2], n, ptr[3])
+        return out.copy()
+
+    floor_call()
+    t_floor, res = best_of(floor_call, rounds)
+    assert np.all(np.isfinite(res))
+    per["floor: the step's spline reads, nothing else"] = t_floor * 1e9 / (N * n)
+    ref = per["tokamak (closed form), native step"]
+    coeffs = sum((k[0] + 1) * (k[1] + 1) * (k[2] + 1) for _, _, k in blocks)
+    lines = ["# The cost floor of a spline step (issue #20)", "",
+             (f"SE+SE (recover=False), h = {h}, N = {N:,} field lines of the tokamak, one process, "
+              f"2 OpenMP threads; ns per particle-step (steps: (best of {rounds} runs of {2 * n} − "
+              f"best of {rounds} runs of {n}) / (N·n); floor: best of {rounds} runs of {n} "
+              f"steps / (N·n), in the kernel's loop order). Spline: {'×'.join(map(str, grid))} (R, φ, Z) nodes of A. The floor reads "
+              f"the {len(blocks)} (spline, point) blocks the generated step reads — "
+              f"{len(guard)} at x for the guard's B(x), "
+              + ", ".join(f"{len(lp)} in solve {j + 1}" for j, lp in enumerate(loops))
+              + f" ({coeffs} coefficients) — with their cells and bases, and nothing else "
+              "(no solve, no sharing between blocks)."), "",
+             "| row | ns / particle-step | × closed-form step |", "|---|---:|---:|"]
+    for label, t in per.items():
+        lines.append(f"| {label} | {t:,.1f} | {t / ref:.2f} |")
+    fl = per["floor: the step's spline reads, nothing else"]
+    lines += ["", (f"The issue's targets: spline step ≤ 5× the closed-form step (≤ {5 * ref:.0f} ns "
+                   f"here); the floor alone is {fl / ref:.1f}× it, the step "
+                   f"{per['tokamak (spline of A), native step'] / fl:.1f}× the floor."), "",
+              f"Load average at the end: {os.getloadavg()[0]:.1f}.", "",
+              machine("bench_spline_floor.py", time.perf_counter() - t0, smoke), ""]
+    return write_results(args.out, "\n".join(lines))
+
+
+if __name__ == "__main__":
+    sys.exit(main())
