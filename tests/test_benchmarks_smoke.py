@@ -166,7 +166,8 @@ def test_bench_spline_floor_smoke(tmp_path, monkeypatch):
     monkeypatch.setenv("VPFORMS_NATIVE_CACHE", str(tmp_path / "cache"))
     text = _smoke("bench_spline_floor", tmp_path)
     assert _row_labels(text) == ["tokamak (closed form), native step", "tokamak (spline of A), native step",
-                                 "floor: the step's spline reads, nothing else"]
+                                 "floor: the step's spline reads, nothing else",
+                                 "floor with per-cell monomial tables"]
     assert "9 (spline, point) blocks" in text and "3 in solve 1, 3 in solve 2 (512 coefficients)" in text
 
 
