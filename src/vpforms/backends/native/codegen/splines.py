@@ -351,23 +351,26 @@ static inline _VP_INLINE int64_t vp_cell(const double *fd, const double *h, int 
     return i;
 }
 
+/* the n-th derivative of sum_p c[p] y^p, Horner term by term (vp_basis: of each B-spline of a
+   cell; vp_seg's callers: of a line's polynomial, vp_lpoly) */
+static inline _VP_INLINE double vp_pn(int k, int n, const double *c, double y) {
+    double f = 1.0;
+    for (int j = 0; j < n; j++) f *= (double)(k - j);
+    double v = f * c[k];
+    for (int p = k - 1; p >= n; p--) {
+        double g = 1.0;
+        for (int j = 0; j < n; j++) g *= (double)(p - j);
+        v = v * y + g * c[p];
+    }
+    return (n == k) ? v + 0.0 * y : v;  /* NaN off the grid, also for a constant */
+}
+
 /* the n-th derivatives of the k+1 non-zero B-splines of cell i at y: Horner on the cell's
    power-basis polynomials P[i - k, r, p] (coefficient of y^p), d^n/dy^n term by term */
 static inline _VP_INLINE void vp_basis(const double *fd, const double *h, int a, int k, int64_t i,
                                        int n, double y, double *N) {
     const double *P = fd + (int64_t)h[3 + a] + (i - k) * (k + 1) * (k + 1);
-    for (int r = 0; r <= k; r++) {
-        const double *q = P + r * (k + 1);
-        double f = 1.0;
-        for (int j = 0; j < n; j++) f *= (double)(k - j);
-        double v = f * q[k];
-        for (int p = k - 1; p >= n; p--) {
-            double g = 1.0;
-            for (int j = 0; j < n; j++) g *= (double)(p - j);
-            v = v * y + g * q[p];
-        }
-        N[r] = (n == k) ? v + 0.0 * y : v;  /* NaN off the grid, also for a constant */
-    }
+    for (int r = 0; r <= k; r++) N[r] = vp_pn(k, n, P + r * (k + 1), y);
 }
 
 /* the coefficient block c[i0-k0+a, i1-k1+b, i2-k2+c] contracted over axis 0 with N0: P[b, c] */
@@ -437,19 +440,6 @@ static inline _VP_INLINE void vp_lpoly(const double *fd, const double *h, int a,
         for (int r = 0; r <= k; r++) s += L[r] * P[r * (k + 1) + p];
         c[p] = s;
     }
-}
-
-/* the n-th derivative of sum_p c[p] y^p (Horner, term by term as vp_basis) */
-static inline _VP_INLINE double vp_pn(int k, int n, const double *c, double y) {
-    double f = 1.0;
-    for (int j = 0; j < n; j++) f *= (double)(k - j);
-    double v = f * c[k];
-    for (int p = k - 1; p >= n; p--) {
-        double g = 1.0;
-        for (int j = 0; j < n; j++) g *= (double)(p - j);
-        v = v * y + g * c[p];
-    }
-    return (n == k) ? v + 0.0 * y : v;  /* NaN off the grid, also for a constant */
 }
 
 /* then over axis 1 with N1: V[c] */
