@@ -9,6 +9,7 @@ import argparse
 import math
 import os
 import platform
+import tempfile
 import time
 from typing import Any, Callable
 
@@ -30,6 +31,12 @@ def native_missing() -> bool:
     if not ok:
         print(f"native backend unavailable: {why}")
     return not ok
+
+
+def fresh_native_cache() -> None:
+    """A native-kernel cache of the run's own (unless ``VPFORMS_NATIVE_CACHE`` is set), so that a
+    "compile" column times a compilation, not a load of an earlier run's kernel."""
+    os.environ.setdefault("VPFORMS_NATIVE_CACHE", tempfile.mkdtemp(prefix="vpforms-bench-"))
 
 
 def best_of(fn: Callable[[], Any], repeats: int) -> tuple[float, Any]:

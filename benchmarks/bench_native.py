@@ -24,13 +24,12 @@ import math
 import os
 import platform
 import sys
-import tempfile
 import time
 
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # benchmarks/_bench.py
-from _bench import best_of  # noqa: E402
+from _bench import best_of, fresh_native_cache  # noqa: E402
 
 A, B, C = 1.0, math.sqrt(2.0 / 3.0), math.sqrt(1.0 / 3.0)
 
@@ -78,7 +77,7 @@ def main(argv=None) -> int:
     a = ap.parse_args(argv)
     if a.smoke:
         a.n, a.steps, a.n_accuracy, a.n_jax, a.repeats = 512, 10, 64, 64, 1
-    os.environ.setdefault("VPFORMS_NATIVE_CACHE", tempfile.mkdtemp(prefix="vpforms-bench-"))
+    fresh_native_cache()
 
     import vpforms as vp
     import vpforms.problems as P

@@ -22,13 +22,12 @@ from __future__ import annotations
 
 import os
 import sys
-import tempfile
 import time
 
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # benchmarks/_bench.py
-from _bench import machine, native_missing, parser, per_step, write_results
+from _bench import fresh_native_cache, machine, native_missing, parser, per_step, write_results
 from bench_native_splines import tokamak_spline
 
 import vpforms
@@ -44,8 +43,7 @@ def main(argv=None) -> int:
         return 1
     smoke = args.smoke
     rounds = 1 if smoke else args.rounds
-    # a cache of its own, so that "compile" is a compilation, not a load of an earlier one
-    os.environ.setdefault("VPFORMS_NATIVE_CACHE", tempfile.mkdtemp(prefix="vpforms-bench-"))
+    fresh_native_cache()
     # (native N, JAX N, n) per field: a spline step costs ~100× a formula's, a coil step ~10⁴×
     sizes = ({"lv": (100, 10, 4), "spl": (100, 10, 4), "co": (4, 0, 2)} if smoke else
              {"lv": (20_000, 500, 50), "spl": (2_000, 50, 20), "co": (16, 0, 4)})

@@ -23,13 +23,12 @@ from __future__ import annotations
 
 import os
 import sys
-import tempfile
 import time
 
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # benchmarks/_bench.py
-from _bench import machine, native_missing, parser, per_step, write_results
+from _bench import fresh_native_cache, machine, native_missing, parser, per_step, write_results
 
 import vpforms
 from vpforms import problems
@@ -67,8 +66,7 @@ def main(argv=None) -> int:
         return 1
     smoke = args.smoke
     rounds = 1 if smoke else args.rounds
-    # a cache of its own, so that "compile" is a compilation, not a load of an earlier one
-    os.environ.setdefault("VPFORMS_NATIVE_CACHE", tempfile.mkdtemp(prefix="vpforms-bench-"))
+    fresh_native_cache()
     N, NJ, n, h = (200, 20, 5, 0.01) if smoke else (20_000, 1_000, 100, 0.01)
     tok = problems.get("tokamak")
     x_cart = tok.initial_conditions(N, seed=0)

@@ -186,14 +186,18 @@ def test_newton_solves_keep_the_cell_exactly_on_seams_knots_and_far_round(stell,
     kept, the line's polynomial in y evaluated by Horner). From knots, the seam from both sides
     and a thousand periods round, with a step long enough that iterates cross cells: native = JAX
     to rounding relative to the step, every step successful. Two SE+SE cases whose solves move
-    along all three axes (u, the periodic φ, Z)."""
+    along all three axes between them (u, the periodic φ, Z)."""
+    cases = [c for c in vp.cases() if c.cls == "SE+SE"]
+    covered = {c.x_plus for c in (cases[0], cases[-1])} | {c.x_circ for c in (cases[0], cases[-1])}
+    assert covered == {1, 2, 3}
     f = stell.field
     pot = f.inside.__self__
     x0 = _torus_points(pot, pot.splines[1])
-    cases = [c for c in vp.cases() if c.cls == "SE+SE"]
-    m = vp.scheme(f, cases[0] if case == 0 else cases[-1], recover=False)
-    axes = set(re.findall(r"vp_seg\(fd, fd \+ \d+, (\d)", kernel_parts(m)[0]))
-    assert axes == ({"0", "1"} if case == 0 else {"1", "2"})  # the solves' axes, kept cells
+    c = cases[0] if case == 0 else cases[-1]
+    m = vp.scheme(f, c, recover=False)
+    # the SE step solves for the roles x₊ and x∘ (x₋ explicit): the kept cells move on those axes
+    axes = {int(a) for a in re.findall(r"vp_seg\(fd, fd \+ \d+, (\d)", kernel_parts(m)[0])}
+    assert axes == {c.x_plus - 1, c.x_circ - 1}
     sn = vp.integrate(m, x0, 0.05, 3, progress=False, backend="native")
     sj = vp.integrate(m, x0, 0.05, 3, progress=False, backend="jax")
     assert sn.stats["backend"] == "native"
