@@ -15,7 +15,9 @@ differentiable: ∇×A = B and ∇·B = 0 hold to rounding for closed coils.
 
 * :class:`Coil`, :class:`CoilSet` — coils and sets (``B(x)``, ``A(x)``, ``from_symmetry``);
 * :func:`read_makegrid`, :func:`write_makegrid`, :class:`CoilFileError` — MAKEGRID ``coils.*`` files;
-* :func:`circular_tokamak`, :func:`l2_stellarator` — two coil sets with closed flux surfaces.
+* :func:`circular_tokamak`, :func:`l2_stellarator` — two coil sets with closed flux surfaces;
+* :func:`device`, :func:`device_axis`, :func:`device_names` — real stellarators by name (W7-X, NCSX,
+  HSX) from the coil data simsopt ships (:mod:`vpforms.coils.devices`).
 
 ``CoilSet.A`` is a Cartesian vector potential of a point (3,), and :class:`CoilPotential` the same
 as a vector-potential object, so ``vpforms.toroidal.toroidal_field(coilset, box)`` (in
@@ -26,6 +28,7 @@ integrate the field lines of a coil set directly with the volume-preserving meth
 
 from ._coilset import Coil, CoilPotential, CoilSet
 from ._segments import MU0
+from .devices import DeviceAxis, device, device_axis, device_data, device_names
 from .library import circular_tokamak, l2_stellarator
 from .makegrid import CoilFileError, read_makegrid, write_makegrid
 
@@ -35,7 +38,12 @@ __all__ = [
     "CoilFileError",
     "CoilPotential",
     "CoilSet",
+    "DeviceAxis",
     "circular_tokamak",
+    "device",
+    "device_axis",
+    "device_data",
+    "device_names",
     "l2_stellarator",
     "read_makegrid",
     "write_makegrid",
