@@ -7,6 +7,7 @@ import argparse
 import inspect
 import math
 import os
+import sys
 from typing import Any
 
 from rich.table import Table
@@ -27,6 +28,40 @@ class _Parser(argparse.ArgumentParser):
 
     def error(self, message: str):  # one line instead of usage + message
         raise CLIError(f"{message} (see '{self.prog} --help')")
+
+    def parse_known_args(self, args=None, namespace=None):
+        args = sys.argv[1:] if args is None else list(args)
+        return super().parse_known_args(self._values_attached(args), namespace)
+
+    def _values_attached(self, args: list[str]) -> list[str]:
+        """``--Z -0.2,0.2`` → ``--Z=-0.2,0.2``: the value of an option that takes one value may
+        start with '-' (a negative number, a comma list, an expression such as ``-y,x,0``).
+
+        argparse reads such a token as an option unless it is one plain number, and stops with
+        "expected one argument". A token is attached to the option before it when that option takes
+        exactly one value and the token is not an option of this parser (``-v``, ``--steps``, …)."""
+        one = {s for a in self._actions if a.nargs is None for s in a.option_strings}
+        out, i = [], 0
+        while i < len(args):
+            tok = args[i]
+            if tok == "--":
+                out.extend(args[i:])
+                break
+            nxt = args[i + 1] if i + 1 < len(args) else None
+            if tok in one and nxt is not None and self._is_value(nxt):
+                out.append(f"{tok}={nxt}")
+                i += 2
+                continue
+            out.append(tok)
+            i += 1
+        return out
+
+    def _is_value(self, tok: str) -> bool:
+        """Whether ``tok``, which follows an option of one value, is that value although it starts
+        with '-': not '-' alone, not a long option, not a short option of this parser (``-v``, ``-vh``)."""
+        if not tok.startswith("-") or tok == "-" or tok.startswith("--"):
+            return False
+        return tok[:2] not in self._option_string_actions
 
     def add_argument(self, *args, **kwargs):
         action = super().add_argument(*args, **kwargs)

@@ -45,6 +45,16 @@ def _wall_arg(text: str):
     return "default" if text.strip().lower() == "default" else _finite_list(text)
 
 
+def _read_input(read, path: str, option: str):
+    """``read(path)``; a missing, unreadable or malformed file is a usage error naming it."""
+    try:
+        return read(path)
+    except OSError as exc:
+        raise CLIError(f"{option} {path!r}: cannot read the file ({exc.strerror or exc})") from None
+    except ValueError as exc:  # CoilFileError, GridFileError: they name the file and the line
+        raise CLIError(str(exc)) from None
+
+
 def _field_source(args):
     """(field, nfp, axis guess, default start radii span, name, default wall or None) of the chosen source."""
     from .. import problems
@@ -57,14 +67,14 @@ def _field_source(args):
         if args.coils:
             if not (args.R and args.Z):
                 raise CLIError("--coils needs the grid box: --R RMIN,RMAX --Z ZMIN,ZMAX")
-            coils = read_makegrid(args.coils)
+            coils = _read_input(read_makegrid, args.coils, "--coils")
             field, err = spline_coil_field(coils, tuple(args.R), tuple(args.Z), n_R=args.grid[0], n_phi=args.grid[1],
                                            n_Z=args.grid[2], name=args.coils)
             name = f"{args.coils} (spline error {err:.2e})"
         else:
-            from ..grids import gridded_field
+            from ..grids import gridded_field, read_mgrid
 
-            field = gridded_field(args.mgrid)
+            field = gridded_field(_read_input(read_mgrid, args.mgrid, "--mgrid"))
             name = args.mgrid
         P = field.periods[1] or 2 * math.pi
         nfp = int(round(2 * math.pi / P))
