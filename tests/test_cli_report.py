@@ -87,10 +87,13 @@ def test_counts_are_those_of_x0(argv, needle, points, tmp_path, capsys, monkeypa
 
 
 def test_the_file_name_printed_is_the_file_written(tmp_path, capsys):
-    out = tmp_path / "foo.txt"  # NumPy writes foo.txt.npz
+    out = tmp_path / "foo.txt"  # NumPy would write foo.txt.npz: refused (issue #40), nothing written
+    assert main(["run", "--steps", "2", "--particles", "2", "--out", str(out)]) == 2
+    assert "must end in .npz, .zarr" in capsys.readouterr().err and not any(tmp_path.iterdir())
+    out = tmp_path / "foo.npz"
     assert main(["run", "--steps", "2", "--particles", "2", "--out", str(out)]) == 0
-    assert f"written: {out}.npz" in capsys.readouterr().out
-    assert (tmp_path / "foo.txt.npz").is_file() and not out.exists()
+    assert f"written: {out}" in capsys.readouterr().out
+    assert [p.name for p in tmp_path.iterdir()] == ["foo.npz"]
 
 
 # ------------------------------------------------------------------------ the compiler's notes

@@ -319,12 +319,42 @@ def _summary_table(title: str, rows: dict[str, Any]):
     return t
 
 
-def _check_out(*paths: str) -> None:
-    """Fail before the computation, not after it, when an output's folder does not exist."""
-    for path in paths:
+#: the suffixes each kind of output accepts: a file is written at exactly the name given (never a
+#: name with a suffix added), so a name of another kind is refused before the computation
+FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
+CSV_SUFFIXES = (".csv",)
+RUN_SUFFIXES = (".npz", ".zarr")
+
+
+def _check_out(args, *outputs: tuple[str, tuple[str, ...]]) -> set[str]:
+    """Fail before the computation, not after it, for outputs ``(dest, suffixes)`` of ``args``:
+    a name without one of the accepted suffixes (lower case), a folder that does not exist,
+    two outputs on one file. Returns the paths that exist already (:func:`_written` says so when
+    they are replaced)."""
+    seen: dict[str, str] = {}
+    existing = set()
+    for dest, suffixes in outputs:
+        path, option = str(getattr(args, dest)), "--" + dest.replace("_", "-")
+        if not path.endswith(suffixes):
+            raise CLIError(f"{option} {path!r}: the name must end in {', '.join(suffixes)} (the file is "
+                           "written at exactly the name given)")
         folder = os.path.dirname(os.path.abspath(path))
         if not os.path.isdir(folder):
             raise CLIError(f"cannot write {path!r}: folder {folder!r} does not exist")
+        key = os.path.normcase(os.path.abspath(path))
+        if key in seen:
+            raise CLIError(f"{seen[key]} and {option} both name {path!r}: give each output its own file")
+        seen[key] = option
+        if os.path.isdir(path) and not path.endswith(".zarr"):
+            raise CLIError(f"{option} {path!r} is a folder, not a file")
+        if os.path.exists(path):
+            existing.add(path)
+    return existing
+
+
+def _written(path: str, existing: set[str]) -> str:
+    """``path``, and "(replaced an existing file)" when it was there before the run."""
+    return f"{path} (replaced an existing file)" if path in existing else path
 
 
 def _add_problem_args(p, default_problem="abc"):

@@ -29,7 +29,10 @@ from ..fieldlines import (
 from ._common import (
     CLIError,
     _add_method_args,
+    CSV_SUFFIXES,
+    FIGURE_SUFFIXES,
     _check_out,
+    _written,
     _finite_list,
     _method_from_args,
     _parse_params,
@@ -102,7 +105,7 @@ def _field_source(args):
 
 
 def _cmd_fieldlines(args, console) -> int:
-    _check_out(args.png, args.iota_png, args.csv)
+    existing = _check_out(args, ("png", FIGURE_SUFFIXES), ("iota_png", FIGURE_SUFFIXES), ("csv", CSV_SUFFIXES))
     refuse_unless(args, ("R", "Z", "grid"), bool(args.coils), "without --coils (the spline grid of a coils file)")
     refuse_unless(args, ("problem", "param"), not (args.coils or args.mgrid),
                   "with --coils/--mgrid (the field is the file's)")
@@ -174,7 +177,8 @@ def _cmd_fieldlines(args, console) -> int:
         rows["lines that hit the wall"] = f"{int(hits.hit.sum())} of {len(x0)}" + (
             f", median connection length {np.median(hits.connection_length[hits.hit]):.4g}" if hits.hit.any() else "")
     console.print(_summary_table("vpforms fieldlines", rows))
-    console.print(f"section: {args.png}\nι profile: {args.iota_png}\nsection points CSV: {args.csv}", soft_wrap=True)
+    console.print(f"section: {_written(args.png, existing)}\nι profile: {_written(args.iota_png, existing)}\n"
+                  f"section points CSV: {_written(args.csv, existing)}", soft_wrap=True)
     return 0
 
 
@@ -205,7 +209,7 @@ def register(sub) -> None:
     p.add_argument("--island-scan", type=_positive_int, default=33, help="scan points (default 33)")
     p.add_argument("--wall", type=_wall_arg, default=None,
                    help="closed (R, Z) polygon R1,Z1,…,R1,Z1, or 'default': the problem's own wall")
-    p.add_argument("--png", default="vpforms-fieldlines.png", help="section figure")
-    p.add_argument("--iota-png", default="vpforms-iota.png", help="ι profile figure")
-    p.add_argument("--csv", default="vpforms-fieldlines.csv", help="section points CSV")
+    p.add_argument("--png", default="vpforms-fieldlines.png", help="section figure: .png, .pdf or .svg (default vpforms-fieldlines.png)")
+    p.add_argument("--iota-png", default="vpforms-iota.png", help="ι profile figure: .png, .pdf or .svg (default vpforms-iota.png)")
+    p.add_argument("--csv", default="vpforms-fieldlines.csv", help="section points: .csv (default vpforms-fieldlines.csv)")
     p.set_defaults(func=_cmd_fieldlines)

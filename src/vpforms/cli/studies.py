@@ -19,7 +19,9 @@ from ._common import (
     CLIError,
     _add_method_args,
     _add_problem_args,
+    FIGURE_SUFFIXES,
     _check_out,
+    _written,
     _float_list,
     _method,
     _method_from_args,
@@ -64,7 +66,7 @@ def _order_table(fits, title):
 
 
 def _cmd_order(args, console) -> int:
-    _check_out(args.png)
+    existing = _check_out(args, ("png", FIGURE_SUFFIXES))
     refuse_unless(args, ("h_max", "levels"), not args.hs, "with --hs (it lists the step sizes)")
     specs = [_parse_method_spec(s) for s in (args.methods or ["SE+SE", "SE+SE:2", "SE+SE:4", "rk4"])]
     refuse_unless(args, ("fast",), any(name.upper() == "SE+SE" for name, _ in specs),
@@ -81,7 +83,7 @@ def _cmd_order(args, console) -> int:
     fits = _order_study(prob, specs, args.T, hs, x0, console, fast=args.fast)
     console.print(_order_table(fits, f"max error at T = {args.T:g} on {prob.name} ({len(x0)} particles; · = not in fit)"))
     plots.order_figure(fits, title=f"Convergence on {prob.name} at T = {args.T:g}", path=args.png)
-    console.print(f"figure: {args.png}", soft_wrap=True)
+    console.print(f"figure: {_written(args.png, existing)}", soft_wrap=True)
     return 0
 
 
@@ -112,7 +114,7 @@ def _drift_panels(prob, method, h, steps, x0, console, label=None, failures=None
 
 
 def _cmd_drift(args, console) -> int:
-    _check_out(args.png)
+    existing = _check_out(args, ("png", FIGURE_SUFFIXES))
     prob = _problem(args)
     method = _method_from_args(args, prob.field)
     failures: dict = {}
@@ -127,7 +129,7 @@ def _cmd_drift(args, console) -> int:
     for label, row in stats.items():
         t.add_row(label, *[str(row[k]) if isinstance(row[k], int) else f"{row[k]:.3e}" for k in keys])
     console.print(t)
-    console.print(f"figure: {args.png}", soft_wrap=True)
+    console.print(f"figure: {_written(args.png, existing)}", soft_wrap=True)
     for label, (m, x0, status) in failures.items():  # why orbits failed, with a hint (issue #12)
         explain_rerun(console, status, m, x0, args.h, args.steps, f"failed orbits of {label}")
     return 0
@@ -147,7 +149,7 @@ def register(sub) -> None:
     p.add_argument("--hs", type=_float_list, default=None, help="explicit comma-separated step sizes")
     p.add_argument("--particles", type=_positive_int, default=4, help="particles (default 4)")
     p.add_argument("--fast", action="store_true", help="closed-form SE+SE path for SE+SE specs")
-    p.add_argument("--png", default="vpforms-order.png", help="figure (default vpforms-order.png)")
+    p.add_argument("--png", default="vpforms-order.png", help="figure: .png, .pdf or .svg (default vpforms-order.png)")
     p.set_defaults(func=_cmd_order)
 
     p = sub.add_parser("drift", help="volume/invariant drift vs RK4: PNG",
@@ -158,5 +160,5 @@ def register(sub) -> None:
     p.add_argument("--h", type=_positive_float, default=0.1, help="step size (default 0.1)")
     p.add_argument("--steps", type=_positive_int, default=2000, help="number of steps (default 2000)")
     p.add_argument("--particles", type=_positive_int, default=16, help="number of orbits (default 16)")
-    p.add_argument("--png", default="vpforms-drift.png", help="figure (default vpforms-drift.png)")
+    p.add_argument("--png", default="vpforms-drift.png", help="figure: .png, .pdf or .svg (default vpforms-drift.png)")
     p.set_defaults(func=_cmd_drift)

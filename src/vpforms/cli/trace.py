@@ -16,7 +16,11 @@ from ._common import (
     CLIError,
     _add_method_args,
     _add_problem_args,
+    CSV_SUFFIXES,
+    FIGURE_SUFFIXES,
+    RUN_SUFFIXES,
     _check_out,
+    _written,
     _method_from_args,
     _positive_float,
     _positive_int,
@@ -28,7 +32,7 @@ from ._explain import explain_rerun, explain_solution, recovered_text
 
 
 def _cmd_run(args, console) -> int:
-    _check_out(args.out)
+    existing = _check_out(args, ("out", RUN_SUFFIXES))
     store = str(args.out).endswith(".zarr")
     refuse_unless(args, STORE_OPTIONS, store, "without a .zarr store (--out run.zarr): an .npz run is in process")
     refuse_unless(args, ("chunk_size",), not store, "with a .zarr store (its tasks are --chunk-particles)")
@@ -44,7 +48,7 @@ def _cmd_run(args, console) -> int:
                         chunk_size=args.chunk_size, progress="auto", backend=args.backend)
     except NativeUnavailableError as exc:
         raise CLIError(str(exc)) from None
-    written = sol.save(args.out)  # NumPy appends .npz to a name without it
+    written = sol.save(args.out)  # the name ends in .npz (_check_out): written as given
     rows = {
         "problem": prob.name,
         "method": sol.method,
@@ -64,7 +68,7 @@ def _cmd_run(args, console) -> int:
         for name, d in invariant_drift(prob.invariants, sol.xs[None] if sol.xs.ndim == 2 else sol.xs).items():
             rows[f"max |Δ {name}|"] = f"{float(np.max(np.abs(d))):.3e}"
     console.print(_summary_table("vpforms run", rows))
-    console.print(f"written: {written}", soft_wrap=True)
+    console.print(f"written: {_written(written, existing)}", soft_wrap=True)
     explain_solution(console, sol, method)  # breakdown by reason, first failures, hint (issue #12)
     return 0
 
@@ -83,7 +87,7 @@ def _default_period(prob, axis: int, given: float | None) -> float | None:
 
 
 def _cmd_poincare(args, console) -> int:
-    _check_out(args.png, args.csv)
+    existing = _check_out(args, ("png", FIGURE_SUFFIXES), ("csv", CSV_SUFFIXES))
     prob = _problem(args)
     method = _method_from_args(args, prob.field)
     axis = args.axis - 1
@@ -109,7 +113,8 @@ def _cmd_poincare(args, console) -> int:
         "failed orbits": int((sec.status != 0).sum()),
         "wall time (s)": round(wall, 2),
     }))
-    console.print(f"figure: {args.png}\ncrossings CSV: {args.csv}", soft_wrap=True)
+    console.print(f"figure: {_written(args.png, existing)}\ncrossings CSV: {_written(args.csv, existing)}",
+                  soft_wrap=True)
     explain_rerun(console, sec.status, method, x0, args.h, args.steps, "failed orbits")
     return 0
 
@@ -127,7 +132,7 @@ def register(sub) -> None:
     p.add_argument("--save-every", type=_positive_int, default=None,
                    help="save every k-th state (default: only the initial and final states)")
     p.add_argument("--chunk-size", type=_positive_int, default=None, help="particles per compiled call")
-    p.add_argument("--out", default="vpforms-run.npz", help="output .npz, or a .zarr store (default vpforms-run.npz)")
+    p.add_argument("--out", default="vpforms-run.npz", help="output: an .npz file, or a .zarr store (resumed when it holds this run; default vpforms-run.npz)")
     _distributed.add_args(p)
     p.set_defaults(func=_cmd_run)
     _distributed.register(sub)
@@ -148,6 +153,6 @@ def register(sub) -> None:
                    help="period of the normal coordinate (default: the problem's, e.g. 2π for abc; 0 = none)")
     p.add_argument("--interpolation", choices=("step", "linear"), default="step",
                    help="crossing location: 'step' (Ψ_{θh}, the method's order) or 'linear' (chord)")
-    p.add_argument("--png", default="vpforms-poincare.png", help="figure (default vpforms-poincare.png)")
-    p.add_argument("--csv", default="vpforms-poincare.csv", help="crossings (default vpforms-poincare.csv)")
+    p.add_argument("--png", default="vpforms-poincare.png", help="figure: .png, .pdf or .svg (default vpforms-poincare.png)")
+    p.add_argument("--csv", default="vpforms-poincare.csv", help="crossings: .csv (default vpforms-poincare.csv)")
     p.set_defaults(func=_cmd_poincare)
