@@ -130,3 +130,35 @@ def test_data_files_are_package_data():
         path = root / "src" / "vpforms" / "coils" / "data" / f"{name}.json"
         assert path.stat().st_size < 100_000
         assert device_data(name)["provenance"]["function"] == f"simsopt.configs.get_data({name!r})"
+
+
+def test_device_problems_are_registered_lazily():
+    """The three devices are coil problems; an unknown device is one clear error."""
+    from vpforms import problems
+    from vpforms.problems import devices as device_problems
+
+    assert {"w7x", "ncsx", "hsx"} <= set(problems.coil_names())
+    assert set(problems.coil_names()).isdisjoint(problems.names())
+    with pytest.raises(ValueError, match="known devices: w7x, ncsx, hsx"):
+        device_problems.make("lhd")
+
+
+@pytest.mark.slow
+def test_w7x_problem_traces_the_coils_directly():
+    """problems.get("w7x"): the field in (u, φ, Z) is the coils' B (converted back to Cartesian, to
+    rounding), its starting points lie on the outboard midplane inside the box, the axis guess is the
+    axis on φ = 0, and φ has the field period."""
+    from vpforms import problems
+    from vpforms.toroidal import cartesian_field, from_toroidal
+
+    p = problems.get("w7x")
+    x = p.initial_conditions(4, seed=1)
+    coils = device("w7x")
+    B = np.asarray(cartesian_field(p.field(x), x))
+    np.testing.assert_allclose(B, np.asarray(coils.B(from_toroidal(x))), atol=1e-12 * np.abs(B).max())
+    assert p.axis_guess == pytest.approx(tuple(device_axis("w7x")(0.0)), abs=1e-12)
+    assert p.periodic == (None, pytest.approx(2 * np.pi / 5), None)
+    for pts in (p.x0, x):
+        R = np.sqrt(2 * pts[:, 0])
+        assert np.all(pts[:, 1:] == 0) and np.all(R > p.axis_guess[0])
+        assert np.all((pts[:, 0] > p.box[0][0]) & (pts[:, 0] < p.box[0][1]))

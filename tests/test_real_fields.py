@@ -43,7 +43,7 @@ def _check_method(prob, case, **options):
 
 
 def test_coil_problems_are_registered_with_their_spline_error(stellarator):
-    assert problems.coil_names() == ("coil_tokamak", "coil_stellarator")
+    assert problems.coil_names()[:2] == ("coil_tokamak", "coil_stellarator")  # then the devices (#38)
     assert set(problems.coil_names()).isdisjoint(problems.names())
     p = stellarator
     assert p.params["spline_error"] < 1e-3  # the spline of A against the coils' own B

@@ -13,8 +13,10 @@ is a SymPy :class:`vpforms.Field` with closed-form SE and DL potentials.
 from __future__ import annotations
 
 from collections.abc import Callable
+from functools import partial
 
-from . import abc, coil_fields, linear, lotka_volterra, rigid_body, stokes_sphere, tokamak
+from . import abc, coil_fields, devices, linear, lotka_volterra, rigid_body, stokes_sphere, tokamak
+from ..coils import device_names
 from ._base import Problem
 
 __all__ = [
@@ -41,11 +43,13 @@ _MAKERS: dict[str, tuple[Callable[..., Problem], Callable[[], Problem] | None]] 
 }
 _GI_DEFAULT: list[Problem] = []
 #: field lines of coil sets (issue #20): fields in (u = R²/2, φ, Z) given by a spline of the coils'
-#: vector potential, not SymPy fields — kept out of :func:`names`, whose problems all have
-#: closed-form potentials and symbolic invariants (and run on the native backend)
+#: vector potential, or (the real stellarators of issue #38) by the coils themselves, not SymPy
+#: fields — kept out of :func:`names`, whose problems all have closed-form potentials and symbolic
+#: invariants (and run on the native backend)
 _COIL_MAKERS: dict[str, tuple[Callable[..., Problem], Callable[[], Problem]]] = {
     "coil_tokamak": (coil_fields.make_tokamak, coil_fields.default_tokamak),
     "coil_stellarator": (coil_fields.make_stellarator, coil_fields.default_stellarator),
+    **{name: (partial(devices.make, name), partial(devices.default, name)) for name in device_names()},
 }
 
 
@@ -55,8 +59,9 @@ def names() -> tuple[str, ...]:
 
 
 def coil_names() -> tuple[str, ...]:
-    """The coil-field problems (:mod:`vpforms.problems.coil_fields`): fields given by a spline of the
-    coils' vector potential in (u = R²/2, φ, Z), JAX backend."""
+    """The coil-field problems in (u = R²/2, φ, Z): a spline of the coils' vector potential
+    (:mod:`vpforms.problems.coil_fields`) or, for the real stellarators ``w7x``, ``ncsx``, ``hsx``,
+    the coils traced directly (:mod:`vpforms.problems.devices`)."""
     return tuple(_COIL_MAKERS)
 
 
