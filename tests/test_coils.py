@@ -613,7 +613,8 @@ def _assert_same(a: CoilSet, b: CoilSet):
 
 def test_makegrid_round_trip_is_exact(tmp_path, tokamak, stellarator):
     rng = np.random.default_rng(8)
-    odd = CoilSet([Coil(rng.normal(size=(5, 3)) * 10.0 ** rng.integers(-8, 8, (5, 1)), rng.normal() * 1e5, 7, "odd"),
+    # magnitudes 1e-8 … 1e2 m (within read_makegrid's MAX_COORDINATE, issue #41) in every digit position
+    odd = CoilSet([Coil(rng.normal(size=(5, 3)) * 10.0 ** rng.integers(-8, 3, (5, 1)), rng.normal() * 1e5, 7, "odd"),
                    Coil(rng.normal(size=(4, 3)), -0.1, 2), Coil(rng.normal(size=(3, 3)), 0.0, 3, "zero")], nfp=2)
     for k, cs in enumerate((tokamak, stellarator, odd)):
         path = tmp_path / f"coils.test{k}"

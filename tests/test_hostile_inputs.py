@@ -99,3 +99,113 @@ def test_run_writes_exactly_the_file_asked_and_says_when_it_replaced_one(tmp_pat
     assert main(argv) == 0
     text = " ".join(capsys.readouterr().out.split())
     assert f"written: {out} (replaced an existing file)" in text and out.stat().st_mtime_ns >= before
+
+
+# ------------------------------------------ field-line studies from impossible starts (issue #41)
+def _twist():
+    from .test_fieldlines import R0, TwistMethod
+
+    return TwistMethod(), R0
+
+
+def test_iota_outside_the_box_is_refused_before_tracing():
+    """Radii beyond the field's box (R ∈ [0.5, 1.5] here) used to give ι = NaN, status 2, after a
+    full trace; now one error names the radius and the box, before any step."""
+    from vpforms.fieldlines import iota_profile
+
+    m, R0 = _twist()
+    with pytest.raises(ValueError, match=r"R = 3.*outside the field's box.*R ∈ \[0\.5, 1\.5\]") as err:
+        iota_profile(m, [1.1, 3.0], 0.1, 64, (R0, 0.0), progress=False)
+    assert "line 1" in str(err.value) and "\n" not in str(err.value)
+    with pytest.raises(ValueError, match=r"Z = 0\.9.*outside the field's box.*Z ∈ \[-0\.5, 0\.5\]"):
+        iota_profile(m, [1.1], 0.1, 64, (R0, 0.0), Z=0.9, progress=False)
+
+
+@pytest.mark.parametrize("R", [-1.0, 0.0, math.nan])
+def test_iota_at_a_radius_that_is_not_positive_is_refused(R):
+    """R = −1 used to be traced as R = +1 (u = R²/2 forgets the sign)."""
+    from vpforms.fieldlines import iota_profile, rotational_transform
+
+    m, R0 = _twist()
+    with pytest.raises(ValueError, match=r"line 1: R must be a positive"):
+        iota_profile(m, [1.1, R], 0.1, 64, (R0, 0.0), progress=False)
+    if R == 0.0:  # u = 0 given directly: R = 0
+        with pytest.raises(ValueError, match=r"R = 0"):
+            rotational_transform(m, [[0.0, 0.0, 0.0]], 0.1, 64, (R0, 0.0), progress=False)
+
+
+def test_iota_of_a_line_started_on_the_axis_is_refused():
+    """θ about the axis is undefined on it: the line read ι = 0 with error 0 and status 0."""
+    from vpforms.fieldlines import iota_profile
+
+    m, R0 = _twist()
+    iota_profile(m, [R0 + 1e-4], 0.1, 64, (R0, 0.0), progress=False)  # near the axis is a line
+    with pytest.raises(ValueError, match=r"line 1 starts on the magnetic axis.*tangent map"):
+        iota_profile(m, [R0 + 0.1, R0 + 1e-9], 0.1, 64, (R0, 0.0), progress=False)
+
+
+def test_axis_and_islands_from_outside_the_box_say_outside():
+    from vpforms.fieldlines import island_chain, magnetic_axis, toroidal_section
+
+    m, R0 = _twist()
+    with pytest.raises(ValueError, match=r"axis guess.*R = 3.*outside the field's box"):
+        magnetic_axis(m, (3.0, 0.0), 0.1)
+    with pytest.raises(ValueError, match=r"axis guess.*R must be a positive"):
+        magnetic_axis(m, (-1.0, 0.0), 0.1)
+    with pytest.raises(ValueError, match=r"island scan point 2 is at R = 1.6.*outside the field's box"):
+        island_chain(m, 2, 0.1, np.linspace(1.2, 2.0, 5))
+    x0 = np.array([[0.5 * 1.1**2, 0.0, 0.0], [0.5 * 2.0**2, 0.0, 0.0]])
+    with pytest.raises(ValueError, match=r"line 1.*R = 2.*outside the field's box"):
+        toroidal_section(m, x0, 0.1, 64, progress=False)
+
+
+def test_cli_fieldlines_axis_guess_outside_the_box_is_a_usage_error(tmp_path, capsys):
+    """The tokamak's box is R ∈ [0.5, 1.5]: a guess at R = 3 is refused before the axis search."""
+    outs = ["--png", str(tmp_path / "a.png"), "--iota-png", str(tmp_path / "b.png"), "--csv", str(tmp_path / "c.csv")]
+    assert main(["fieldlines", "--axis-guess", "3,0", *outs]) == 2
+    line = _error_line(capsys)
+    assert "the axis guess is at R = 3, Z = 0, outside the field's box R ∈ [0.5, 1.5]" in line
+    assert list(tmp_path.iterdir()) == []
+
+
+# ------------------------------------------------------------------ MAKEGRID coil files (issue #41)
+def _coil_file(tmp_path, rows, current="1000.0"):
+    """A one-coil MAKEGRID file, a square of side 2 at z = 0 (``rows`` replaces its points)."""
+    pts = rows or [("1.0", "0.0", "0.0"), ("0.0", "1.0", "0.0"), ("-1.0", "0.0", "0.0"), ("0.0", "-1.0", "0.0")]
+    lines = ["periods 1", "begin filament", "mirror NIL"]
+    lines += [f"{x} {y} {z} {current}" for x, y, z in pts]
+    lines += [f"{pts[0][0]} {pts[0][1]} {pts[0][2]} 0.0 1 ring", "end"]
+    path = tmp_path / "coils.test"
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+@pytest.mark.parametrize("row, current, line, needle", [
+    (("1e308", "0.0", "0.0"), "1000.0", 4, "x = 1e+308"),
+    (("1.0", "0.0", "-2e4"), "1000.0", 4, "z = -20000"),
+    (None, "1e300", 4, "the current 1e+300"),
+    (None, "-5e9", 4, "the current -5e+09"),
+])
+def test_makegrid_absurd_values_are_refused_with_the_line(tmp_path, row, current, line, needle):
+    from vpforms.coils import CoilFileError, read_makegrid
+    from vpforms.coils.makegrid import MAX_COORDINATE, MAX_CURRENT
+
+    rows = None
+    if row is not None:
+        rows = [row, ("0.0", "1.0", "0.0"), ("-1.0", "0.0", "0.0"), ("0.0", "-1.0", "0.0")]
+    path = _coil_file(tmp_path, rows, current)
+    with pytest.raises(CoilFileError) as err:
+        read_makegrid(path)
+    msg = str(err.value)
+    assert msg.startswith(f"{path}, line {line}: ") and needle in msg
+    bound = MAX_CURRENT if "current" in needle else MAX_COORDINATE
+    assert f"{bound:g}" in msg
+
+
+def test_makegrid_file_without_current_is_refused(tmp_path):
+    from vpforms.coils import CoilFileError, read_makegrid
+
+    path = _coil_file(tmp_path, None, "0.0")
+    with pytest.raises(CoilFileError, match=r"every coil carries current 0.*no field"):
+        read_makegrid(path)
+    assert len(read_makegrid(_coil_file(tmp_path, None, "1.0"))) == 1  # the same file with a current reads

@@ -32,7 +32,15 @@ import numpy as np
 from .._errors import VPFormsError
 from ._coilset import Coil, CoilSet
 
-__all__ = ["CoilFileError", "read_makegrid", "write_makegrid"]
+__all__ = ["CoilFileError", "MAX_COORDINATE", "MAX_CURRENT", "read_makegrid", "write_makegrid"]
+
+#: the largest |x|, |y|, |z| (m) a coils file may hold: 10 km, far beyond any device (ITER's coils
+#: lie within ~15 m of its axis); a larger value is a unit error (mm, µm) or a corrupt number, and
+#: near 1e308 the segments' field overflows
+MAX_COORDINATE = 1.0e4
+#: the largest |I| (A) a coil may carry: 1 GA, above any coil (the largest superconducting coils
+#: carry ~1e7–1e8 ampere-turns); a larger current is an error, which made a trace recover every step
+MAX_CURRENT = 1.0e9
 
 
 class CoilFileError(VPFormsError, ValueError):
@@ -54,6 +62,17 @@ def _float(tok: str, path: Path, lineno: int, what: str) -> float:
     return v
 
 
+def _check_bounds(path: Path, lineno: int, xyz: tuple, current: float) -> None:
+    """Refuse coordinates beyond :data:`MAX_COORDINATE` and a current beyond :data:`MAX_CURRENT`."""
+    for name, v in zip("xyz", xyz):
+        if abs(v) > MAX_COORDINATE:
+            raise CoilFileError(path, lineno, f"{name} = {v:g} m is beyond ±{MAX_COORDINATE:g} m (MAX_COORDINATE): "
+                                              "not a coordinate of a coil (a unit error or a corrupt number?)")
+    if abs(current) > MAX_CURRENT:
+        raise CoilFileError(path, lineno, f"the current {current:g} A is beyond ±{MAX_CURRENT:g} A (MAX_CURRENT): "
+                                          "not a coil current (a unit error or a corrupt number?)")
+
+
 def read_makegrid(path: str | os.PathLike) -> CoilSet:
     """Read a MAKEGRID ``coils.*`` file (module docstring) into a :class:`CoilSet`.
 
@@ -64,7 +83,8 @@ def read_makegrid(path: str | os.PathLike) -> CoilSet:
     CoilFileError
         (a ``ValueError``) naming the file, the line and what is wrong: an empty file, a missing
         ``periods`` / ``begin filament`` / ``end``, a line with the wrong number of fields,
-        a non-numeric or non-finite value, a current that changes within a coil, a closing line
+        a non-numeric or non-finite value, a coordinate beyond :data:`MAX_COORDINATE` or a current
+        beyond :data:`MAX_CURRENT`, a file whose every current is 0, a current that changes within a coil, a closing line
         with a non-zero current, a coil not closed by a zero-current line (a truncated file),
         a degenerate coil (too few distinct points, a zero-length segment).
     """
@@ -120,6 +140,7 @@ def read_makegrid(path: str | os.PathLike) -> CoilSet:
             raise CoilFileError(path, lineno, f"expected 'x y z I' (4 fields) or 'x y z 0.0 group [name]' (5–6); "
                                               f"got {len(f)} fields: {' '.join(f)!r}")
         x, y, z, cur = (_float(t, path, lineno, w) for t, w in zip(f[:4], ("x", "y", "z", "the current")))
+        _check_bounds(path, lineno, (x, y, z), cur)
         if not pts:
             first_line = lineno
         if len(f) == 4:
@@ -156,6 +177,9 @@ def read_makegrid(path: str | os.PathLike) -> CoilSet:
         raise CoilFileError(path, rest[0], f"unexpected text after 'end': {' '.join(rest[1])!r}")
     if not coils:
         raise CoilFileError(path, lineno, "no coils between 'begin filament' and 'end'")
+    if all(c.current == 0 for c in coils):
+        raise CoilFileError(path, None, f"every coil carries current 0 ({len(coils)} coil(s)): the file has no "
+                                        "field (a coils file gives each coil's current on its point lines: x y z I)")
     return CoilSet(coils, nfp=nfp)
 
 
