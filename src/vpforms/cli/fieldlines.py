@@ -26,6 +26,7 @@ from ..fieldlines import (
     toroidal_section,
     trace_to_wall,
 )
+from ..fieldlines._domain import StartPointError
 from ._common import (
     CLIError,
     _add_method_args,
@@ -105,6 +106,15 @@ def _field_source(args):
 
 
 def _cmd_fieldlines(args, console) -> int:
+    """The study; a start point that no answer fits (outside the field's box, R ≤ 0, on the axis:
+    :mod:`vpforms.fieldlines._domain`) is a usage error, one line before any tracing."""
+    try:
+        return _study(args, console)
+    except StartPointError as exc:
+        raise CLIError(str(exc)) from None
+
+
+def _study(args, console) -> int:
     existing = _check_out(args, ("png", FIGURE_SUFFIXES), ("iota_png", FIGURE_SUFFIXES), ("csv", CSV_SUFFIXES))
     refuse_unless(args, ("R", "Z", "grid"), bool(args.coils), "without --coils (the spline grid of a coils file)")
     refuse_unless(args, ("problem", "param"), not (args.coils or args.mgrid),

@@ -24,6 +24,8 @@ import numpy as np
 
 from .._errors import RESULTS, ConvergenceError
 from ..diagnostics._surfaces import wrap_angle
+from ._domain import check_radii, check_starts
+from ._geometry import is_toroidal
 from ._returnmap import ReturnMap, return_map, status_message
 
 __all__ = ["FixedPoint", "find_fixed_point", "magnetic_axis", "island_chain", "scan_fixed_points"]
@@ -196,6 +198,24 @@ def _mean_dphi(P: ReturnMap, z) -> float:
     return float(P._dphi(X, x))
 
 
+def _check_section_points(method: Any, phi: float, rz: Any, what: str) -> None:
+    """ValueError unless every (R, Z) of ``rz`` on the section φ = phi has R > 0 and lies in the
+    field's box and domain (:mod:`._domain`): a guess outside says so, not "did not converge"."""
+    rz = np.asarray(rz, float).reshape(-1, 2)
+    if rz.shape[0] == 0 or not np.all(np.isfinite(rz)):
+        return  # find_fixed_point names a non-finite guess
+    check_radii(rz[:, 0], what)
+    field = getattr(method, "field", None)
+    if field is None:
+        return
+    R, Z = rz[:, 0], rz[:, 1]
+    if is_toroidal(field):
+        pts = np.stack([0.5 * R * R, np.full_like(R, phi), Z], axis=1)
+    else:
+        pts = np.stack([R * math.cos(phi), R * math.sin(phi), Z], axis=1)
+    check_starts(field, pts, what, "is")
+
+
 def magnetic_axis(method: Any, guess: Any, h: float, phi: float = 0.0, nfp: int = 1, *, tol: float = 1e-12,
                   max_iter: int = 30, return_map_: ReturnMap | None = None) -> FixedPoint:
     """The magnetic axis on the section φ = phi: the fixed point of the return map P (m = 1) of
@@ -203,7 +223,9 @@ def magnetic_axis(method: Any, guess: Any, h: float, phi: float = 0.0, nfp: int 
 
     ι of the axis comes from the tangent map M = DP: cos(2π ι/nfp) = tr M / 2 gives ι up to the branch
     (ι/nfp ↦ k ± ν), which is chosen by the turning of a tangent vector followed for 8 field periods;
-    it is the limit of the ι of the lines that approach the axis (the q₀ of a tokamak)."""
+    it is the limit of the ι of the lines that approach the axis (the q₀ of a tokamak). A guess with
+    R ≤ 0 or outside the field's box or domain is refused up front (ValueError saying so)."""
+    _check_section_points(method, phi, [guess], "the axis guess")
     P = return_map_ or return_map(method, h, phi, nfp, guess=guess)
     fp = find_fixed_point(P, guess, 1, tol=tol, max_iter=max_iter)
     if fp.kind != "O":
@@ -249,7 +271,8 @@ def island_chain(method: Any, m: int, h: float, R: Any, Z: float = 0.0, phi: flo
     """The O- and X-points of the m-island chains crossing the line Z = const at radii R (an
     array of scan radii, e.g. ``np.linspace(1.2, 1.35, 61)``): fixed points of Pᵐ that are not fixed
     points of a lower power dividing m (the axis is not an island)."""
-    R = np.asarray(R, float)
+    R = np.asarray(R, float).reshape(-1)
+    _check_section_points(method, phi, np.stack([R, np.full_like(R, Z)], axis=1), "the island scan point")
     P = return_map(method, h, phi, nfp, guess=(float(np.mean(R)), float(Z)))
     pts = scan_fixed_points(P, m, R, Z, tol=tol)
     out = []

@@ -36,6 +36,7 @@ from .._recovery import bare_first
 from ..backends.jax_runner import _StepFn, auto_chunk_size
 from ..diagnostics._common import _chunks, _pad
 from ..diagnostics._surfaces import wrap_angle
+from ._domain import check_off_axis, check_radii, check_starts
 from ._geometry import cylindrical, is_toroidal
 from ._returnmap import ReturnMap
 
@@ -180,12 +181,20 @@ def rotational_transform(method: Any, x0: Any, h: float, n_steps: int, axis: Any
     """ι of the field lines from x0 (field coordinates, Cartesian or (u, φ, Z)) over n_steps steps
     of h, by the weighted Birkhoff average of the poloidal angle about ``axis`` (an
     :class:`AxisCurve`, the :class:`~vpforms.fieldlines.FixedPoint` of :func:`magnetic_axis`, or an
-    (R, Z) pair); module docstring."""
+    (R, Z) pair); module docstring. Starts with R = 0, outside the field's box or domain, or on the
+    axis are refused before any step (:mod:`._domain`); a line that fails later keeps ι = NaN and
+    its ``status``."""
     pts, _, h, n_steps = _check_run(method, x0, h, n_steps, 0.0)
     if n_steps < 2:
         raise ValueError(f"n_steps must be ≥ 2 for a Birkhoff average; got {n_steps}")
     ax = _as_axis(axis)
-    toroidal = is_toroidal(getattr(method, "field", None))
+    field = getattr(method, "field", None)
+    toroidal = is_toroidal(field)
+    if field is not None:  # R > 0, in the field's domain, off the axis: else ι would be NaN or 0
+        check_starts(field, pts, "line")
+        R, phi, Z = cylindrical(jnp.asarray(pts), toroidal)
+        Ra, Za = jax.vmap(ax)(phi)
+        check_off_axis(field, np.asarray(R), np.asarray(Z), np.asarray(Ra), np.asarray(Za))
     N = pts.shape[0]
     C = min(N, chunk_size or auto_chunk_size(N, 8))
     seg = 1024 if n_steps >= 1024 else 1 << (n_steps - 1).bit_length()  # few compiled lengths
@@ -227,9 +236,12 @@ def rotational_transform(method: Any, x0: Any, h: float, n_steps: int, axis: Any
 def iota_profile(method: Any, R: Any, h: float, n_steps: int, axis: Any, *, Z: float | None = None, phi: float = 0.0,
                  **kw: Any) -> Iota:
     """ι (and q = 1/ι) of the lines starting at radii R on the line Z = const (default: the axis's Z)
-    of the half-plane φ = phi: the outboard-midplane profile for R beyond the axis."""
+    of the half-plane φ = phi: the outboard-midplane profile for R beyond the axis.
+
+    Radii R ≤ 0, starts outside the field's box or domain and a start on the axis are refused (one
+    ValueError naming the line, before any step: :mod:`._domain`)."""
     ax = _as_axis(axis)
-    R = np.asarray(R, float).reshape(-1)
+    R = check_radii(R, "line")  # R = −1 would be the line at R = +1 (u = R²/2)
     Ra, Za = (float(v) for v in ax(jnp.asarray(float(phi))))
     Zs = np.full_like(R, Za if Z is None else float(Z))
     if is_toroidal(getattr(method, "field", None)):

@@ -11,6 +11,7 @@ import numpy as np
 from .._integrate import _check_run
 from ..diagnostics._surfaces import Plane, ToroidalAngle
 from ..diagnostics.poincare import PoincareSection, _section_on
+from ._domain import check_starts
 from ._geometry import is_toroidal
 
 __all__ = ["ToroidalSection", "toroidal_section", "section_surface"]
@@ -93,6 +94,7 @@ def toroidal_section(method: Any, x0: Any, h: float, n_steps: int, phi: float = 
     The result's ``transit`` numbers a line's crossings from 0; with nfp > 1 a line crosses nfp
     half-planes per toroidal turn. ``backend`` as for :func:`~vpforms.diagnostics.poincare_section`
     (``"auto"``: native where the method can be generated; ``section.backend`` says which ran).
+    A start with R = 0 or outside the field's box or domain is refused before any step.
     """
     if direction not in (-1, 0, 1):
         raise ValueError(f"direction must be -1, 0 or +1, got {direction}")
@@ -101,6 +103,8 @@ def toroidal_section(method: Any, x0: Any, h: float, n_steps: int, phi: float = 
     field = getattr(method, "field", None)
     surface = section_surface(field, phi, nfp)
     pts, _, h, n_steps = _check_run(method, x0, h, n_steps, t0)
+    if field is not None:  # R > 0 and in the field's box or domain, before any step
+        check_starts(field, pts, "line")
     axis = 1 if isinstance(surface, Plane) else -1
     sec = _section_on(method, pts, h, n_steps, surface, direction, max_crossings, interpolation, t0, chunk_size,
                       progress, f"section φ = {surface.value:.4g}",
