@@ -14,12 +14,12 @@ of the coil set): no grid, exactly divergence free, periodic in φ with period 2
 * ``axis_guess`` — the axis point (R, Z) on φ = 0 (from the axis data).
 * ``x0`` — five points on the outboard midplane of φ = 0 (Z = 0) at 10 %, 30 %, 50 %, 70 %, 90 % of
   the distance ``edge`` from the axis to the outermost closed surface there; the sampler draws
-  between 5 % and 95 % of it. For NCSX and HSX ``edge`` was measured with simsopt's
-  ``compute_fieldlines`` on its own ``BiotSavart`` (tol 1e-9, 25 and 40 transits, 16 lines from the
-  axis outward): the largest offset whose line stays on a thin closed curve of the section (HSX
-  0.07 m: the line at 0.08 m leaves within 25 transits; NCSX 0.075 m: beyond it the lines spread
-  over a wide band and leave past 0.14 m). For W7-X it is issue #38's measurement: ι rises to
-  ≈ 0.967 at R = 6.20 m on this midplane, then the 5/5 island chain (0.25 m from the axis).
+  between 5 % and 95 % of it. ``edge`` was measured with simsopt's ``compute_fieldlines`` on its
+  own ``BiotSavart`` (tol 1e-9; 40, 25, 20 transits for HSX, NCSX, W7-X; 16 lines from the axis
+  outward): the largest offset whose line stays on a thin closed curve of the section (HSX 0.07 m:
+  the line at 0.08 m leaves within 25 transits; NCSX 0.075 m: beyond it the lines spread over a
+  wide band and leave past 0.14 m; W7-X 0.25 m: closed curves to 0.24 m, the lines at 0.27 and
+  0.30 m lie in the 5/5 island chain, R ∈ [6.20, 6.25] m on the section, as issue #38 reports).
 
 Known limit (issue #38): on W7-X's box ``vpforms.scheme(problem.field, "SE+SE")`` refuses the field
 with a ``PotentialError`` — the SE pair built by the Gauss–Legendre gauge integral of A does not
