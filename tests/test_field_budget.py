@@ -110,23 +110,6 @@ def test_a_tiny_exact_divergence_is_never_accepted():
         Field.from_sympy((x1 * _sum_of_identities(25), a2, sp.Integer(0)))
 
 
-def test_closed_form_over_the_time_budget_falls_back_to_quadrature(monkeypatch):
-    import vpforms._potentials as pot
-
-    monkeypatch.setattr(pot, "INTEGRATE_SECONDS", 1e-3)
-    f = field_from_text("sin(z)+cos(y), sin(x)+cos(z), sin(y)+cos(x)", {})
-    assert f.potential_methods == {"se": "quadrature(n=32)", "dl": "quadrature(n=32)"}
-    # once over budget, the family (the other splitting, the relabelled fields) does not retry
-    assert f._closed_form_budget == {"over": True}
-    from vpforms._methods._relabel import relabelled_field
-
-    monkeypatch.setattr(pot, "INTEGRATE_SECONDS", 60.0)
-    g = relabelled_field(f, (2, 3, 1))
-    assert g._closed_form_budget is f._closed_form_budget
-    assert g.potential_methods == {"se": "quadrature(n=32)", "dl": "quadrature(n=32)"}
-    assert f.reconstruction_error("se", n_points=64) < 1e-12
-
-
 def test_time_limit_main_thread_only():
     from vpforms._budget import TimeBudgetExceeded, time_limited, timer_available
 

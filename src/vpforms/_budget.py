@@ -1,33 +1,47 @@
-"""Budgets of field preparation (issue #22): every symbolic step on a user's field is bounded.
+"""Budgets of field preparation (issues #22, #40): every symbolic step on a user's field is bounded,
+and what is computed never depends on the clock.
 
 A field given as text or SymPy expressions goes through parsing, a divergence check, linearity
 detection and closed-form potentials.  Each of these calls SymPy operations whose cost is not
 bounded by the size of their input (``expand`` of ``(x+y+z)**1000``, ``simplify``/``trigsimp`` of
-a long Fourier sum, ``integrate``), so each runs under a budget:
+a long Fourier sum, ``integrate``), so each runs under budgets of two kinds:
 
-* **structural** (always, in every thread) — the size of the expression tree
-  (:data:`MAX_NODES`), exponents and exact constants *after evaluation* (:data:`MAX_EXPONENT`,
-  :data:`MAX_DIGITS`, checked by :mod:`vpforms._parse` before SymPy evaluates anything), the number
-  of terms an ``expand`` would produce (:data:`MAX_EXPAND_TERMS`, predicted from the tree before
-  expanding: :func:`expansion_terms`), and the size (``count_ops``) of what is handed to
-  ``simplify`` (:data:`MAX_SIMPLIFY_OPS`) or ``integrate`` (:data:`MAX_INTEGRATE_OPS`);
-* **time** (:func:`time_limited`) — ``simplify`` and ``integrate`` additionally get a wall-clock
-  limit (:data:`SIMPLIFY_SECONDS`, :data:`INTEGRATE_SECONDS`) through ``SIGALRM``.  Signals reach
-  only the main thread, so the time limit applies there only (and only where ``SIGALRM`` exists and
-  is not already in use by the program); in worker threads — the library may be called from a
-  thread pool — the structural budgets alone apply, and they are what keeps every step bounded.
+* **deterministic budgets** decide WHAT is computed — closed form or quadrature, simplify or not,
+  linear or general, divergence judged symbolically or numerically.  They read the expressions
+  only: the size of the expression tree (:data:`MAX_NODES`), exponents and exact constants *after
+  evaluation* (:data:`MAX_EXPONENT`, :data:`MAX_DIGITS`, checked by :mod:`vpforms._parse` before
+  SymPy evaluates anything), the number of terms an ``expand`` would produce
+  (:data:`MAX_EXPAND_TERMS`, predicted from the tree: :func:`expansion_terms`), the size
+  (``count_ops``) of what is handed to ``simplify`` (:data:`MAX_SIMPLIFY_OPS`), ``integrate``
+  (:data:`MAX_INTEGRATE_OPS`) or ``solve`` (:data:`MAX_SOLVE_OPS`), the degree of a polynomial
+  handed to ``factor`` (:data:`MAX_FACTOR_DEGREE`), and the structure of an integrand that
+  predicts when ``sympy.integrate`` is hopeless (:func:`integration_obstacle`: a function of a
+  non-polynomial argument, a denominator of degree > :data:`MAX_DENOMINATOR_DEGREE`, or of degree
+  > :data:`MAX_PARAMETRIC_DENOMINATOR_DEGREE` with other coordinates in it, a radicand of degree
+  > :data:`MAX_RADICAND_DEGREE`).  The same field gets the same potentials and the same numbers on
+  a quiet and on a loaded machine.
+* **the last guard** (:func:`guarded`) — a wall-clock limit on each SymPy step, a protection
+  against a runaway call that the budgets did not predict, never a switch to another method:
+  over :func:`guard_seconds` (default :data:`GUARD_SECONDS` = 60 s) the step stops with
+  :class:`BudgetError` naming the step and how to raise the limit — the environment variable
+  ``VPFORMS_GUARD_SECONDS`` or the module constant ``vpforms._budget.GUARD_SECONDS``.  It is
+  set through ``SIGALRM``, which reaches only the main thread: in worker threads (the library may
+  be called from a thread pool), or where the program uses ``SIGALRM`` itself, the deterministic
+  budgets alone apply.
 
-What happens over budget depends on the step: a step with a cheaper exact alternative falls back
-to it and says so (the divergence is then judged numerically — :attr:`Field.divergence_check`
-says how —, a closed form gives way to quadrature potentials, which need no simplification, and a
-linear field not recognised within budget is treated as a general field); a step without one
-(parsing a number with 10⁶ digits, a tree of 10⁵ nodes) raises :class:`BudgetError`, one line
-naming the step and what to do.
+What happens over a deterministic budget depends on the step: a step with a cheaper exact
+alternative takes it and says so (the divergence is then judged numerically —
+:attr:`Field.divergence_check` says how —, a closed form gives way to quadrature potentials, which
+need no simplification, with the reason in :attr:`Field.potential_reasons`, and a linear field not
+recognised within budget is treated as a general field); a step without one (parsing a number with
+10⁶ digits, a tree of 10⁵ nodes) raises :class:`BudgetError`, one line naming the step and what
+to do.
 """
 
 from __future__ import annotations
 
 import math
+import os
 import signal
 import sys
 import threading
@@ -39,20 +53,28 @@ import sympy as sp
 from ._errors import BudgetError
 
 __all__ = [
-    "INTEGRATE_SECONDS",
+    "GUARD_ENV",
+    "GUARD_SECONDS",
+    "MAX_DENOMINATOR_DEGREE",
     "MAX_DIGITS",
     "MAX_EXPAND_TERMS",
     "MAX_EXPONENT",
+    "MAX_FACTOR_DEGREE",
     "MAX_INTEGRATE_OPS",
     "MAX_NODES",
+    "MAX_PARAMETRIC_DENOMINATOR_DEGREE",
+    "MAX_RADICAND_DEGREE",
     "MAX_SIMPLIFY_OPS",
-    "SIMPLIFY_SECONDS",
+    "MAX_SOLVE_OPS",
     "BudgetError",
     "TimeBudgetExceeded",
     "bounded_expand",
     "bounded_simplify",
     "check_size",
     "expansion_terms",
+    "guard_seconds",
+    "guarded",
+    "integration_obstacle",
     "time_limited",
     "timer_available",
     "tree_size",
@@ -70,10 +92,24 @@ MAX_EXPAND_TERMS = 4000
 MAX_SIMPLIFY_OPS = 60
 #: ``count_ops`` of one integrand of the closed-form potentials (larger: quadrature potentials)
 MAX_INTEGRATE_OPS = 400
-#: wall-clock seconds of one trigsimp + simplify attempt (main thread only)
-SIMPLIFY_SECONDS = 1.0
-#: wall-clock seconds of the closed-form potentials of one splitting (main thread only)
-INTEGRATE_SECONDS = 3.0
+#: degree in the integration variable of the denominators of an integrand, summed over its distinct
+#: denominators (larger: quadrature; ∫ 1/(1 + s²)²⁵ ds takes 1.4 s, the degree-198 one 9 s)
+MAX_DENOMINATOR_DEGREE = 48
+#: the same for the denominators that hold other coordinates (partial fractions with parameters:
+#: degree 11 ran past 20 s, degree 2 takes 4 s)
+MAX_PARAMETRIC_DENOMINATOR_DEGREE = 6
+#: degree in the integration variable of a radicand (a base with a non-integer exponent): above
+#: 2 the antiderivative is elliptic or worse (larger: quadrature)
+MAX_RADICAND_DEGREE = 2
+#: ``count_ops`` of an equation handed to ``sympy.solve`` (φ-time inverse; larger: no closed form)
+MAX_SOLVE_OPS = 200
+#: total degree of a polynomial handed to ``factor_list`` (singular sets; larger: not factored)
+MAX_FACTOR_DEGREE = 60
+#: the last guard: wall-clock seconds of one SymPy step of field preparation before it stops with
+#: BudgetError (never a fallback); ``VPFORMS_GUARD_SECONDS`` in the environment overrides it
+GUARD_SECONDS = 60.0
+#: the environment variable that sets the last guard's limit (seconds, > 0)
+GUARD_ENV = "VPFORMS_GUARD_SECONDS"
 
 _CAP = 10**9  # saturation of the predicted term counts
 
@@ -152,9 +188,98 @@ def bounded_expand(expr: Any, max_terms: int = MAX_EXPAND_TERMS) -> Any | None:
     return sp.expand(expr)
 
 
+def integration_obstacle(integrand: Any, var: Any) -> str | None:
+    """Why ``sympy.integrate(integrand, var)`` is hopeless or too costly, read off the integrand's
+    structure (deterministic: no clock), or None when it is worth trying.
+
+    Obstacles (calibrated on the fuzz corpus, issue #40: each predicted the integrals that ran past
+    3 s, none a closed form that SymPy finds quickly):
+
+    * a function (sin, atan, tanh, …) whose argument is not a polynomial in ``var`` — sin(π/s),
+      atan(5 sin s), cos(s³ + atan s): SymPy's heuristics search long and mostly fail — or an
+      inverse function or logarithm of a polynomial of degree > :data:`MAX_RADICAND_DEGREE`
+      (atan(s¹²): the roots of a polynomial of degree 24);
+    * denominators (negative integer powers of polynomials in ``var``) whose degrees in ``var``,
+      summed over the distinct denominators, exceed :data:`MAX_DENOMINATOR_DEGREE`, or
+      :data:`MAX_PARAMETRIC_DENOMINATOR_DEGREE` for those that hold other symbols (partial
+      fractions with parameters);
+    * a radicand (a base with a non-integer exponent) that is not a polynomial in ``var`` of degree
+      ≤ :data:`MAX_RADICAND_DEGREE` (elliptic and worse), or ``var`` in both base and exponent.
+    """
+    degrees: dict = {}
+    for node in sp.preorder_traversal(sp.sympify(integrand)):
+        if var not in getattr(node, "free_symbols", ()):
+            continue
+        if isinstance(node, sp.Function):
+            why = _function_obstacle(node, var)
+            if why is not None:
+                return why
+        elif isinstance(node, sp.Pow):
+            why = _power_obstacle(node, var, degrees)
+            if why is not None:
+                return why
+    total = sum(degrees.values())
+    if total > MAX_DENOMINATOR_DEGREE:
+        return f"denominators of degree {total} in {var} > MAX_DENOMINATOR_DEGREE = {MAX_DENOMINATOR_DEGREE}"
+    parametric = sum(d for b, d in degrees.items() if b.free_symbols - {var})
+    if parametric > MAX_PARAMETRIC_DENOMINATOR_DEGREE:
+        return (f"denominators with other coordinates of degree {parametric} in {var} > "
+                f"MAX_PARAMETRIC_DENOMINATOR_DEGREE = {MAX_PARAMETRIC_DENOMINATOR_DEGREE}")
+    return None
+
+
+#: functions whose derivative is algebraic: ∫ f(p(s)) ds needs the roots of a polynomial of degree
+#: 2·deg p (∫ atan(s¹²) ds ran past 20 s), so their argument may be of degree ≤ MAX_RADICAND_DEGREE
+_ALGEBRAIC_DERIVATIVE = (sp.atan, sp.acot, sp.asin, sp.acos, sp.log, sp.asinh, sp.acosh, sp.atanh, sp.acoth)
+
+
+def _function_obstacle(node: Any, var: Any) -> str | None:
+    """:func:`integration_obstacle` for one function application f(…) with ``var`` in it."""
+    for a in node.args:
+        if not isinstance(a, sp.Expr) or var not in a.free_symbols:
+            continue
+        if not a.is_polynomial(var) and not _polynomial_in_exponentials(a, var):
+            return f"{type(node).__name__} of an argument that is not a polynomial in {var}: {_short(node)}"
+        if isinstance(node, _ALGEBRAIC_DERIVATIVE) and sp.Poly(a, var).degree() > MAX_RADICAND_DEGREE:
+            return (f"{type(node).__name__} of a polynomial of degree > {MAX_RADICAND_DEGREE} in {var}: "
+                    f"{_short(node)}")
+    return None
+
+
+def _polynomial_in_exponentials(a: Any, var: Any) -> bool:
+    """Is ``a`` a polynomial in exponentials e^{αs+β} of ``var`` = s (sin(e^{1−s}) integrates by
+    substitution: Si)?"""
+    exps = [e for e in a.atoms(sp.exp) if var in e.free_symbols]
+    if not exps or not all(e.args[0].is_polynomial(var) and sp.Poly(e.args[0], var).degree() == 1 for e in exps):
+        return False
+    z = sp.Dummy("z")
+    b = a.xreplace({e: z for e in exps})
+    return var not in b.free_symbols and b.is_polynomial(z)
+
+
+def _power_obstacle(node: Any, var: Any, degrees: dict) -> str | None:
+    """:func:`integration_obstacle` for one power b**p with ``var`` in it; a denominator's degree
+    goes into ``degrees`` (base → largest degree seen)."""
+    b, p = node.args
+    if var in p.free_symbols:
+        return f"{var} in both base and exponent: {_short(node)}" if var in b.free_symbols else None
+    if p.is_Integer:
+        if p < 0 and b.is_polynomial(var):
+            degrees[b] = max(degrees.get(b, 0), sp.Poly(b, var).degree() * int(-p))
+        return None
+    if not b.is_polynomial(var) or sp.Poly(b, var).degree() > MAX_RADICAND_DEGREE:
+        return f"a radicand that is not a polynomial of degree ≤ {MAX_RADICAND_DEGREE} in {var}: {_short(node)}"
+    return None
+
+
+def _short(e: Any, n: int = 80) -> str:
+    t = str(e)
+    return t if len(t) <= n else t[: n - 1] + "…"
+
+
 # ------------------------------------------------------------------------------------ time budget
 class TimeBudgetExceeded(Exception):
-    """A time-limited step ran past its limit (internal: callers fall back or raise BudgetError)."""
+    """A time-limited step ran past its limit (internal: :func:`guarded` turns it into BudgetError)."""
 
 
 class _Alarm(BaseException):
@@ -217,11 +342,46 @@ def time_limited(seconds: float, fn: Callable, *args, **kwargs):
         sys.unraisablehook = hook
 
 
-def bounded_simplify(expr: Any, max_ops: int = MAX_SIMPLIFY_OPS,
-                     seconds: float = SIMPLIFY_SECONDS) -> list:
-    """The results of ``trigsimp`` then ``simplify`` of ``expr`` within the budget (count_ops ≤
-    ``max_ops``, ``seconds`` in all): a list of 0, 1 or 2 expressions, the empty list when the
-    expression is too large or time ran out before the first result."""
+def guard_seconds() -> float:
+    """The last guard's limit in seconds: ``VPFORMS_GUARD_SECONDS`` if set (a number > 0; ``inf``
+    switches the guard off), else :data:`GUARD_SECONDS` (read at each call, so that setting the
+    module constant takes effect at once).  ValueError naming the variable for anything else."""
+    raw = os.environ.get(GUARD_ENV, "").strip()
+    if not raw:
+        return float(GUARD_SECONDS)
+    try:
+        value = float(raw)
+    except ValueError:
+        value = math.nan
+    if not value > 0:
+        raise ValueError(f"{GUARD_ENV}={raw!r}: the last guard of field preparation needs a number of "
+                         "seconds > 0 (inf: no guard)")
+    return value
+
+
+def guarded(step: str, fn: Callable, *args, **kwargs):
+    """``fn(*args, **kwargs)`` under the last guard: BudgetError naming ``step`` and how to raise
+    the limit when it runs longer than :func:`guard_seconds` (main thread; elsewhere no limit).
+    Never a fallback: a guarded step either finishes or stops field preparation.  Nested guarded
+    steps run under the outermost limit, which the message names."""
+    limit = guard_seconds()
+    if not math.isfinite(limit):
+        return fn(*args, **kwargs)
+    try:
+        return time_limited(limit, fn, *args, **kwargs)
+    except TimeBudgetExceeded:
+        raise BudgetError(
+            f"field preparation: {step} ran longer than {limit:g} s, the last guard against a runaway "
+            "SymPy call (budget GUARD_SECONDS of vpforms._budget: the deterministic budgets did not "
+            f"predict this cost); raise it with the environment variable {GUARD_ENV}=<seconds> (or "
+            "vpforms._budget.GUARD_SECONDS), or give the field as a JAX callable (Field.from_callable), "
+            "which needs no symbolic preparation") from None
+
+
+def bounded_simplify(expr: Any, max_ops: int = MAX_SIMPLIFY_OPS) -> list:
+    """The results of ``trigsimp`` then ``simplify`` of ``expr`` (the second skipped when the first
+    gives 0): a list of 0, 1 or 2 expressions, the empty list when ``count_ops`` exceeds
+    ``max_ops`` (a deterministic budget).  Runs under the last guard (:func:`guarded`)."""
     expr = sp.sympify(expr)
     if sp.count_ops(expr) > max_ops:
         return []
@@ -237,8 +397,5 @@ def bounded_simplify(expr: Any, max_ops: int = MAX_SIMPLIFY_OPS,
             if s == 0:
                 return
 
-    try:
-        time_limited(seconds, run)
-    except TimeBudgetExceeded:
-        pass
+    guarded(f"simplifying {_short(expr)}", run)
     return out

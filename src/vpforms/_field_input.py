@@ -22,14 +22,8 @@ import mpmath
 import numpy as np
 import sympy as sp
 
-from ._budget import (
-    SIMPLIFY_SECONDS,
-    TimeBudgetExceeded,
-    bounded_expand,
-    bounded_simplify,
-    time_limited,
-)
-from ._errors import NotRealFieldError
+from ._budget import bounded_expand, bounded_simplify, guarded
+from ._errors import BudgetError, NotRealFieldError
 from ._fieldops import _decide_zero, _div_error, _fmt_pt, _lambdify_numpy
 
 __all__ = ["alias_coordinates", "check_divergence", "check_real", "constant_jacobian", "real_problem"]
@@ -206,9 +200,11 @@ def _why_not_real(e, symbols, pt) -> str:
     if not _cheap_to_evaluate(e, symbols, pt):
         return "is not finite in float64 (it overflows, or is singular there)"
     try:
-        v = time_limited(SIMPLIFY_SECONDS, lambda: sp.N(
+        v = guarded(f"evaluating {_short(e)} in 20 digits", lambda: sp.N(
             e.xreplace({s: sp.Float(float(c), 20) for s, c in zip(symbols, pt)}), 20))
-    except (TimeBudgetExceeded, Exception):  # noqa: BLE001 - only the wording depends on it
+    except BudgetError:
+        raise
+    except Exception:  # noqa: BLE001 - only the wording depends on it
         return "is not finite"
     if v.has(sp.nan, sp.zoo, sp.oo, -sp.oo):
         return "is not finite (a singularity)"
@@ -335,7 +331,8 @@ def _detect_linear(exprs, symbols, J=None) -> np.ndarray | None:
 
     With the numerical Jacobian J (N, 3, 3) at sample points, only a field whose Jacobian is
     constant there (to 1e-9 relative) is examined symbolically — a Fourier series is not linear
-    and costs nothing here; the symbolic examination gets SIMPLIFY_SECONDS in all (main thread)."""
+    and costs nothing here; the symbolic examination is bounded by the deterministic budgets of
+    :func:`bounded_expand` and :func:`bounded_simplify` (and the last guard)."""
     if J is not None:
         fin = J[np.all(np.isfinite(J), axis=(1, 2))]
         if not len(fin) or np.max(np.ptp(fin, axis=0)) > 1e-9 * _jac_scale(fin):
@@ -345,10 +342,7 @@ def _detect_linear(exprs, symbols, J=None) -> np.ndarray | None:
         A = _linear_polynomial(exprs, symbols)
         return A if A is not None else constant_jacobian(exprs, symbols)
 
-    try:
-        return time_limited(SIMPLIFY_SECONDS, examine)
-    except TimeBudgetExceeded:
-        return None
+    return guarded("recognising a linear field", examine)
 
 
 def _linear_polynomial(exprs, symbols) -> np.ndarray | None:

@@ -16,7 +16,7 @@ from sympy.core.function import AppliedUndef
 from sympy.printing.numpy import JaxPrinter, SciPyPrinter
 
 from . import _config  # noqa: F401  (float64)
-from ._budget import SIMPLIFY_SECONDS, TimeBudgetExceeded, bounded_expand, bounded_simplify, time_limited
+from ._budget import bounded_expand, bounded_simplify, guarded
 from ._errors import NotDivergenceFreeError, VPFormsError
 
 #: Default coordinate symbols x1, x2, x3 (real).
@@ -326,8 +326,8 @@ def _decide_zero(expr: Any, symbols: Sequence[sp.Symbol], float_thr: float,
     tolerance can judge it.  An exact (Float-free) expression whose expansion is a nonzero
     polynomial is False.  Every step runs under the budgets of :mod:`vpforms._budget`: the
     expansion only when it stays under MAX_EXPAND_TERMS terms, trigsimp/simplify only for
-    expressions of at most MAX_SIMPLIFY_OPS operations and for SIMPLIFY_SECONDS; what the budget
-    does not decide is None (callers judge it numerically or fall back to quadrature).
+    expressions of at most MAX_SIMPLIFY_OPS operations (deterministic budgets: no clock decides
+    here, only the last guard stops a runaway call); what the budget does not decide is None (callers judge it numerically or fall back to quadrature).
     ``simplify=False`` stops before trigsimp/simplify (the cheap exact steps only).
     """
     e0 = sp.sympify(expr)
@@ -360,12 +360,9 @@ def _decide_zero(expr: Any, symbols: Sequence[sp.Symbol], float_thr: float,
 
 def _rational_zero(e: Any, float_thr: float, has_float: bool) -> bool | None:
     """Is the rational function e zero: its numerator over a common denominator, expanded within
-    MAX_EXPAND_TERMS and SIMPLIFY_SECONDS (None when over budget; a nonzero numerator with Float
-    coefficients is undecided, as in :func:`_decide_zero`)."""
-    try:
-        num = time_limited(SIMPLIFY_SECONDS, lambda: bounded_expand(sp.fraction(sp.together(e))[0]))
-    except TimeBudgetExceeded:
-        return None
+    MAX_EXPAND_TERMS (None when over budget; a nonzero numerator with Float coefficients is
+    undecided, as in :func:`_decide_zero`), under the last guard."""
+    num = guarded("the numerator of a rational function", lambda: bounded_expand(sp.fraction(sp.together(e))[0]))
     if num is None:
         return None
     if has_float:

@@ -19,14 +19,14 @@ import numpy as np
 import sympy as sp
 
 from ._budget import (
-    INTEGRATE_SECONDS,
+    MAX_FACTOR_DEGREE,
     MAX_INTEGRATE_OPS,
     MAX_SIMPLIFY_OPS,
-    SIMPLIFY_SECONDS,
-    TimeBudgetExceeded,
     bounded_expand,
-    time_limited,
+    guarded,
+    integration_obstacle,
 )
+from ._errors import BudgetError
 from ._fieldops import (
     _SPLITTINGS,
     SYMBOLS,
@@ -111,72 +111,100 @@ def potential_exprs(
     implementation of these formulas; :class:`Field` and :mod:`vpforms.symbolic.recipes` use it).
 
     ``"se"`` → (F¹, F³), ``"dl"`` → (G¹, G²), integrated from the base point ``origin``; None if
-    SymPy leaves an unevaluated integral or a Piecewise.  Not verified here: the formulas give
-    the field only if it is divergence free.
+    an integrand is over the budgets of :mod:`vpforms._budget` (:func:`integration_obstacle`), or
+    SymPy leaves an unevaluated integral or a Piecewise (:func:`closed_form_attempt` says which).
+    Not verified here: the formulas give the field only if it is divergence free.
     """
+    return closed_form_attempt(exprs, symbols, splitting, origin)[0]
+
+
+def closed_form_attempt(exprs, symbols=SYMBOLS, splitting: str = "se", origin=(0, 0, 0)):
+    """(pair, None) as :func:`potential_exprs`, or (None, why not): the budget an integrand is over
+    or how ``sympy.integrate`` failed — the reason recorded for a quadrature."""
     splitting = _check_splitting(splitting)
     a1, a2, a3 = (sp.sympify(e) for e in exprs)
     x1, x2, x3 = symbols
     c1, c2, c3 = (sp.nsimplify(c) for c in origin)
     s, t = sp.Dummy("s", real=True), sp.Dummy("t", real=True)
 
-    def integ(expr, var, dummy, lo):
-        e = bounded_expand(expr.xreplace({var: dummy}))
-        if e is None:
-            raise _NoClosedForm
-        r = sp.integrate(e, (dummy, lo, var))
-        if r.has(sp.Integral):
-            raise _NoClosedForm
-        return r
-
-    try:
-        if splitting == "se":
-            Q = integ(a1, x2, s, c2)  # F3
-            P = -integ(a3, x2, s, c2) + integ(a2.xreplace({x2: c2}), x3, t, c3)  # F1
-        else:
-            P = integ(a2, x3, t, c3)  # G1
-            Q = -integ(a1, x3, t, c3) + integ(a3.xreplace({x3: c3}), x1, s, c1)  # G2
-    except _NoClosedForm:
-        return None
-    except Exception:  # noqa: BLE001 - SymPy may raise on hard integrands: fall back to quadrature
-        return None
+    if splitting == "se":  # F3 = ∫a1 dx2,  F1 = −∫a3 dx2 + ∫a2(x1, c2, t) dt
+        plan = [(a1, x2, s, c2), (a3, x2, s, c2), (a2.xreplace({x2: c2}), x3, t, c3)]
+    else:  # G1 = ∫a2 dx3,  G2 = −∫a1 dx3 + ∫a3(s, x2, c3) ds
+        plan = [(a2, x3, t, c3), (a1, x3, t, c3), (a3.xreplace({x3: c3}), x1, s, c1)]
+    try:  # every integrand within budget before any is integrated
+        integrands = [_within_budget(expr, var, dummy) for expr, var, dummy, _ in plan]
+        first, second, third = (_integrate(e, expr, var, dummy, lo)
+                                for e, (expr, var, dummy, lo) in zip(integrands, plan))
+    except _NoClosedForm as why:
+        return None, str(why)
+    P, Q = (-second + third, first) if splitting == "se" else (first, -second + third)
     pair = (bounded_expand(P), bounded_expand(Q))
-    if any(p is None or p.has(sp.Piecewise) for p in pair):
-        return None
-    return pair
+    if any(p is None for p in pair):
+        return None, "the closed form's expansion is over MAX_EXPAND_TERMS (vpforms._budget)"
+    if any(p.has(sp.Piecewise) for p in pair):
+        return None, "sympy.integrate gives a piecewise closed form"
+    return pair, None
 
 
-def _closed_form_potentials(field: Any, splitting: str):
-    """SymPy closed forms of MATH.md §3, verified symbolically; None if integrate fails, or if the
-    closed form needs a function with no JAX implementation (e.g. hyper, Shi) or complex numbers
-    (e.g. fresnels(e^{iπ/4}x)·e^{−3iπ/4}, real but not evaluable in float64): the field's own
-    components then give the potentials by quadrature.  So does a field over the budget of
-    :mod:`vpforms._budget`: a component of more than MAX_INTEGRATE_OPS operations, or integration
-    and verification taking more than INTEGRATE_SECONDS (main thread) — after which the field's
-    other splitting and its relabelled fields (which share ``_closed_form_budget``) do not try."""
-    spent = field.__dict__.setdefault("_closed_form_budget", {"over": False})  # shared with relabellings
-    if spent["over"] or any(sp.count_ops(e) > MAX_INTEGRATE_OPS for e in field.exprs):
-        return None
-    try:
-        return time_limited(INTEGRATE_SECONDS, _verified_closed_form, field, splitting)
-    except TimeBudgetExceeded:
-        spent["over"] = True  # the other splitting and the relabelled fields: quadrature at once
-        return None
+def _closed_form_potentials(field: Any, splitting: str) -> tuple[tuple | None, str | None]:
+    """(SymPy closed forms of MATH.md §3, verified symbolically, None) or (None, why not) — the
+    reason recorded for the quadrature that replaces them: a component of more than
+    MAX_INTEGRATE_OPS operations, an integrand over the structural budgets of
+    :func:`vpforms._budget.integration_obstacle`, integrate failing, a closed form that needs a
+    function with no JAX implementation (e.g. hyper, Shi, RootSum) or complex numbers (e.g.
+    fresnels(e^{iπ/4}x)·e^{−3iπ/4}, real but not evaluable in float64), or one not proven to give
+    the field within budget.  Every decision is deterministic; the integration and verification
+    run under the last guard (:func:`vpforms._budget.guarded`: BudgetError, never a fallback)."""
+    for i, e in enumerate(field.exprs, start=1):
+        n = sp.count_ops(e)
+        if n > MAX_INTEGRATE_OPS:
+            return None, f"component a{i} has {n} operations > MAX_INTEGRATE_OPS = {MAX_INTEGRATE_OPS} (vpforms._budget)"
+    return guarded(f"the closed-form {splitting.upper()} potentials of field {field.name!r}",
+                   _verified_closed_form, field, splitting)
 
 
-def _verified_closed_form(field: Any, splitting: str):
-    pair = potential_exprs(field.exprs, field.symbols, splitting, field.origin)
-    if pair is None or any(p.has(sp.I) or jax_unsupported(p) for p in pair):
-        return None
+def _verified_closed_form(field: Any, splitting: str) -> tuple[tuple | None, str | None]:
+    pair, why = closed_form_attempt(field.exprs, field.symbols, splitting, field.origin)
+    if pair is None:
+        return None, why
+    if any(p.has(sp.I) for p in pair):
+        return None, "the closed form has complex numbers (not evaluable in float64)"
+    missing = sorted({n for p in pair for n in jax_unsupported(p)}
+                     | {type(a).__name__ for p in pair for a in p.atoms(sp.RootSum, sp.Lambda)})
+    if missing:
+        return None, f"the closed form needs {', '.join(missing)}, which has no JAX implementation"
     thr = 1e-12 * _float_scale(field.exprs)
     res = _residual_exprs(field.exprs, field.symbols, splitting, pair)
     if not all(_symbolic_zero(r, field.symbols, thr) for r in res):
-        return None
-    return pair
+        return None, "the closed form is not proven to give the field within the budgets of vpforms._budget"
+    return pair, None
 
 
 class _NoClosedForm(Exception):
-    pass
+    """Why a closed form is not attempted or not found (the message)."""
+
+
+def _within_budget(expr, var, dummy):
+    """The integrand expr(var → dummy), expanded, or _NoClosedForm naming the budget it is over."""
+    e = bounded_expand(expr.xreplace({var: dummy}))
+    if e is None:
+        raise _NoClosedForm(f"∫ {_short(expr, 60)} d{var}: its expansion is over MAX_EXPAND_TERMS (vpforms._budget)")
+    why = integration_obstacle(e, dummy)
+    if why is not None:
+        raise _NoClosedForm(f"∫ {_short(expr, 60)} d{var}: {why.replace(str(dummy), str(var))} "
+                            "(budget of vpforms._budget)")
+    return e
+
+
+def _integrate(e, expr, var, dummy, lo):
+    """∫_lo^var e d(dummy) by sympy.integrate, or _NoClosedForm saying how it failed."""
+    try:
+        r = sp.integrate(e, (dummy, lo, var))
+    except Exception as err:  # noqa: BLE001 - SymPy may raise on hard integrands
+        raise _NoClosedForm(f"∫ {_short(expr, 60)} d{var}: sympy.integrate raised {type(err).__name__}") from None
+    if r.has(sp.Integral):
+        raise _NoClosedForm(f"∫ {_short(expr, 60)} d{var}: sympy.integrate finds no antiderivative")
+    return r
 
 
 def _quadrature_potentials(comps, splitting: str, origin, n: int, integral=line_integral):
@@ -255,7 +283,10 @@ def gauge_exprs(A: Sequence[Any], symbols: Sequence[sp.Symbol], splitting: str,
     else:
         t = sp.Dummy("t", real=True)
         try:
-            chi = sp.integrate(A[k].xreplace({xk: t}), (t, sp.nsimplify(origin[k]), xk))
+            chi = guarded(f"the gauge integral ∫ {_short(A[k], 60)} d{xk}", sp.integrate,
+                          A[k].xreplace({xk: t}), (t, sp.nsimplify(origin[k]), xk))
+        except BudgetError:
+            raise
         except Exception:  # noqa: BLE001 - SymPy may raise on hard integrands
             return None
         if chi.has(sp.Integral) or chi.has(sp.Piecewise):
@@ -287,8 +318,8 @@ def _singular_sets(expr: sp.Expr, symbols: Sequence[sp.Symbol]) -> list[tuple[sp
     radicands, and cos/sin under tan/sec, cot/csc; polynomial g split into irreducible factors.
 
     Remembered per (expression, symbols) (:func:`vpforms.integrate` checks the potentials at every
-    run's initial conditions) unless a factorisation failed or ran out of time: only a result that
-    does not depend on the clock is kept."""
+    run's initial conditions) unless a factorisation failed.  Factored only within the budgets
+    MAX_SIMPLIFY_OPS and MAX_FACTOR_DEGREE (deterministic), under the last guard."""
     key = (expr, tuple(symbols))
     hit = _SINGULAR_SETS.get(key)
     if hit is not None:
@@ -325,15 +356,24 @@ def _find_singular_sets(expr: sp.Expr, symbols: Sequence[sp.Symbol]) -> tuple[li
     out: list[tuple[sp.Expr, str]] = []
     for g, kind in raw:
         facs = [(g, 1)]
-        if g.is_polynomial(*symbols) and sp.count_ops(g) <= MAX_SIMPLIFY_OPS:  # within budget
+        if _factorable(g, symbols):
             try:
-                facs = time_limited(SIMPLIFY_SECONDS, sp.factor_list, g, *symbols)[1] or facs
-            except Exception:  # noqa: BLE001 - factoring is only a refinement (or over time)
+                facs = guarded(f"factoring {_short(g, 60)}", sp.factor_list, g, *symbols)[1] or facs
+            except BudgetError:
+                raise
+            except Exception:  # noqa: BLE001 - factoring is only a refinement
                 complete = False
         for f, _ in facs:
             if f.free_symbols & syms and (f, kind) not in out:
                 out.append((f, kind))
     return out, complete
+
+
+def _factorable(g: sp.Expr, symbols: Sequence[sp.Symbol]) -> bool:
+    """Is g a polynomial within the budgets of factoring (MAX_SIMPLIFY_OPS, MAX_FACTOR_DEGREE)?"""
+    if not g.is_polynomial(*symbols) or sp.count_ops(g) > MAX_SIMPLIFY_OPS:
+        return False
+    return sp.Poly(g, *symbols).total_degree() <= MAX_FACTOR_DEGREE
 
 
 def _numpy_fn(expr, symbols):

@@ -132,6 +132,10 @@ class Field:
     potential_method, potential_methods:
         how the potentials were obtained: ``"closed form"``, ``"quadrature(n=32)"`` or
         ``"user-supplied"``; ``potential_methods`` is the dict per splitting.
+    potential_reasons:
+        per splitting, why its potentials are (partly) a quadrature — the budget of
+        :mod:`vpforms._budget` an integrand is over, or how ``sympy.integrate`` failed — or None
+        where no quadrature is involved.  Decided by deterministic budgets, never by the clock.
     linear_matrix:
         numpy (3, 3) A if a(x) = A x, else None.
     exprs, symbols:
@@ -180,6 +184,8 @@ class Field:
         self.n_samples = int(n_samples)
         # potentials: splitting -> (callables, exprs or None, method)
         self._potentials: dict[str, tuple[tuple[Scalar, Scalar], tuple | None, str]] = {}
+        # splitting -> why its potentials are a quadrature (None: no quadrature), set with them
+        self._potential_reasons: dict[str, str | None] = {}
         # vector potentials A (∇×A = a) of what the user supplied (issue #23): when present, every
         # missing pair — and every pair of a relabelled field — is derived from them by the gauge
         # of _potentials.gauge_exprs, never from the field itself
@@ -272,6 +278,13 @@ class Field:
         return {k: self._get(k)[2] for k in _SPLITTINGS}
 
     @property
+    def potential_reasons(self) -> dict[str, str | None]:
+        """Per splitting, why its potentials are (partly) a quadrature, or None (closed form,
+        user-supplied, exact gauge)."""
+        self.potential_methods  # noqa: B018 - builds the potentials, which records the reasons
+        return {k: self._potential_reasons.get(k) for k in _SPLITTINGS}
+
+    @property
     def potential_method(self) -> str:
         m = self.potential_methods
         if m["se"] == m["dl"]:
@@ -290,12 +303,16 @@ class Field:
     def _build_potentials(self, splitting: str):
         if self._vector_potentials:
             return self._gauge_potentials(splitting)
-        if self.exprs is not None and self.closed_form:
-            got = _closed_form_potentials(self, splitting)
-            if got is not None:
-                exprs = got
+        if self.exprs is None:
+            why = "the field is a callable: no expressions to integrate in closed form"
+        elif not self.closed_form:
+            why = "closed forms not asked for (closed_form=False)"
+        else:
+            exprs, why = _closed_form_potentials(self, splitting)
+            if exprs is not None:
                 fns = tuple(_lambdify_scalar(e, self.symbols) for e in exprs)
                 return fns, exprs, "closed form"
+        self._potential_reasons[splitting] = why
         fns = _quadrature_potentials(self.components, splitting, self.origin, self.quadrature_n)
         return fns, None, f"quadrature(n={self.quadrature_n})"
 
@@ -311,6 +328,7 @@ class Field:
             how = f"from the {A.description}"
             if not A.exact_gauge:
                 how += f" (gauge by quadrature, n={self.quadrature_n})"
+                self._potential_reasons[splitting] = f"the {A.description} has no exact gauge integral"
             return A.gauge(splitting, self.origin, self.quadrature_n), None, how
         A = next((A for A in As if _is_zero(A[k])), As[0])
         how = "from the supplied potentials"
@@ -319,6 +337,9 @@ class Field:
             if pair is not None:
                 return tuple(_lambdify_scalar(e, self.symbols) for e in pair), pair, how
             A = tuple(_lambdify_scalar(sp.sympify(c), self.symbols) for c in A)
+            self._potential_reasons[splitting] = "sympy.integrate finds no closed-form gauge integral χ"
+        else:
+            self._potential_reasons[splitting] = "the supplied potentials are callables: the gauge integral χ is a quadrature"
         A = tuple(0 if _is_zero(c) else c for c in A)
         fns = gauge_callables(A, splitting, self.origin, self.quadrature_n)
         return fns, None, f"{how} (gauge by quadrature, n={self.quadrature_n})"
@@ -427,7 +448,6 @@ class Field:
             # a relabelling (π⁻¹, π⁻¹)·a of a checked field (vpforms._methods._relabel): real,
             # finite and divergence free as that one is; not linear (those go to Field.linear)
             how, linear = _relabelled_from.divergence_check, None
-            shared = _relabelled_from.__dict__.setdefault("_closed_form_budget", {"over": False})
         else:
             # real and finite on the box (issue #22), before anything else is computed from it
             pts = sample_box(box, DIV_POINTS, 0)
@@ -462,8 +482,6 @@ class Field:
             divergence_check=how,
             tol=tol,
         )
-        if _relabelled_from is not None:  # one time budget of closed forms for the family
-            field._closed_form_budget = shared
         if potentials is not None:
             for key, pair in _check_potentials_arg(potentials).items():
                 try:

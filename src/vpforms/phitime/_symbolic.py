@@ -14,7 +14,10 @@ The construction is the one of :mod:`vpforms.phitime`, done by SymPy where it ca
 For the axisymmetric part of a tokamak, B^φ = g/R² = g/(2u) and A'_Z = −(g/2) ln(2u): v = g ln R,
 U = e^{2v/g}/2 — a closed form, so the field-line study with φ as the time runs natively.
 
-Every SymPy call is bounded (:mod:`vpforms._budget`): when SymPy finds no χ or no U in its budget,
+Every SymPy call is bounded by the deterministic budgets of :mod:`vpforms._budget` (χ only for an
+A_u within MAX_INTEGRATE_OPS and :func:`~vpforms._budget.integration_obstacle`, U only for an
+equation within MAX_SOLVE_OPS; the last guard stops a runaway call with BudgetError): when SymPy
+finds no χ or no U in its budget,
 :func:`vpforms.phitime.phi_time_field` builds the same field from the lambdified potential (U by
 the safeguarded Newton solve, K a JAX callable) and says so in a warning: the field is then stepped
 on the JAX backend only (``backend="native"`` refuses it with the reason).
@@ -28,21 +31,20 @@ from typing import Any
 import sympy as sp
 
 from .._budget import (
-    INTEGRATE_SECONDS,
-    TimeBudgetExceeded,
+    MAX_INTEGRATE_OPS,
+    MAX_SOLVE_OPS,
     bounded_simplify,
     check_size,
-    time_limited,
+    guarded,
+    integration_obstacle,
 )
+from .._errors import BudgetError
 from .._fieldops import _lambdify_scalar, _symbolic_zero
 from .._vecpot import CallablePotential
 from ..fields import Field
 from ._coordinates import PhiTimeCoordinates
 
 __all__ = ["NoClosedForm", "is_sympy_potential", "symbolic_phi_time_field", "toroidal_potential_exprs"]
-
-#: wall-clock budget of one ``sympy.solve`` for U (main thread; :func:`vpforms._budget.time_limited`)
-SOLVE_SECONDS = 3.0
 
 
 class NoClosedForm(Exception):
@@ -99,22 +101,35 @@ def _free_name(base: str, taken: Sequence[sp.Symbol]) -> sp.Symbol:
 
 
 def _gauge_expr(Au: sp.Expr, u: sp.Symbol, u_ref: float) -> sp.Expr:
-    """χ = ∫_{u_ref}^u A_u du in closed form, or NoClosedForm."""
+    """χ = ∫_{u_ref}^u A_u du in closed form, or NoClosedForm (also over the deterministic budgets
+    MAX_INTEGRATE_OPS and :func:`~vpforms._budget.integration_obstacle`)."""
+    n = sp.count_ops(Au)
+    if n > MAX_INTEGRATE_OPS:
+        raise NoClosedForm(f"A_u has {n} operations > MAX_INTEGRATE_OPS = {MAX_INTEGRATE_OPS} (vpforms._budget)")
+    why = integration_obstacle(Au, u)
+    if why is not None:
+        raise NoClosedForm(f"∫ A_u du: {why} (budget of vpforms._budget)")
     try:
-        chi = time_limited(INTEGRATE_SECONDS, sp.integrate, Au, (u, sp.nsimplify(u_ref), u))
-    except TimeBudgetExceeded:
-        raise NoClosedForm(f"∫ A_u du took longer than {INTEGRATE_SECONDS:g} s") from None
+        chi = guarded("the gauge integral ∫ A_u du", sp.integrate, Au, (u, sp.nsimplify(u_ref), u))
+    except (NotImplementedError, ValueError, TypeError) as err:
+        if isinstance(err, BudgetError):
+            raise
+        raise NoClosedForm(f"sympy.integrate of A_u raised {type(err).__name__}") from None
     if chi.has(sp.Integral):
         raise NoClosedForm(f"SymPy finds no antiderivative of A_u = {Au} in u")
     return chi
 
 
 def _inverse_candidates(V: sp.Expr, u: sp.Symbol, v: sp.Symbol) -> list[sp.Expr]:
-    """The roots u = U(v, φ, Z) of V(u, φ, Z) = v that ``sympy.solve`` finds, or NoClosedForm."""
+    """The roots u = U(v, φ, Z) of V(u, φ, Z) = v that ``sympy.solve`` finds, or NoClosedForm (also
+    for an equation over the deterministic budget MAX_SOLVE_OPS)."""
+    n = sp.count_ops(V)
+    if n > MAX_SOLVE_OPS:
+        raise NoClosedForm(f"v = V(u, φ, Z) has {n} operations > MAX_SOLVE_OPS = {MAX_SOLVE_OPS} (vpforms._budget)")
     try:
-        roots = time_limited(SOLVE_SECONDS, sp.solve, sp.Eq(V, v), u, dict=False)
-    except TimeBudgetExceeded:
-        raise NoClosedForm(f"solving v = {V} for u took longer than {SOLVE_SECONDS:g} s") from None
+        roots = guarded(f"solving v = {V} for u", sp.solve, sp.Eq(V, v), u, dict=False)
+    except BudgetError:
+        raise
     except (NotImplementedError, ValueError) as err:  # sympy: "multiple generators", no algorithm
         raise NoClosedForm(f"SymPy cannot solve v = {V} for u ({type(err).__name__})") from None
     roots = [r for r in roots if isinstance(r, sp.Expr) and not r.has(sp.I) and u not in r.free_symbols]
