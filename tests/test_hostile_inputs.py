@@ -209,3 +209,73 @@ def test_makegrid_file_without_current_is_refused(tmp_path):
     with pytest.raises(CoilFileError, match=r"every coil carries current 0.*no field"):
         read_makegrid(path)
     assert len(read_makegrid(_coil_file(tmp_path, None, "1.0"))) == 1  # the same file with a current reads
+
+
+# ------------------------------------------------------------------ vpforms verify (issue #41)
+@pytest.fixture
+def small_store(tmp_path):
+    pytest.importorskip("zarr")
+    import vpforms
+    from vpforms import problems
+    from vpforms.distributed import run
+
+    prob = problems.get("abc")
+    store = str(tmp_path / "s.zarr")
+    run(vpforms.scheme(prob.field, "SE+SE"), prob.initial_conditions(4, seed=0), 0.1, 2, store=store,
+        chunk_particles=2, progress=False, backend="jax")
+    assert main(["verify", store]) == 0
+    return store
+
+
+@pytest.mark.parametrize("where", ["zarr.json", "x/zarr.json", "status/zarr.json"])
+@pytest.mark.parametrize("garbage", [b"\xff\xfe\x00garbage", b'{"zarr_format": 3, "node_type": "array"'])
+def test_verify_names_a_damaged_metadata_file_and_never_passes_it(small_store, capsys, where, garbage):
+    import os
+
+    from vpforms.io import StoreVerificationError, verify_store
+
+    path = os.path.join(small_store, where)
+    with open(path, "wb") as fh:
+        fh.write(garbage)
+    assert main(["verify", small_store]) == 1
+    line = _error_line(capsys)
+    assert path in line and "UnicodeDecodeError" not in line
+    with pytest.raises(StoreVerificationError, match="store metadata .* is damaged|differs from its copy") as err:
+        verify_store(small_store)
+    assert path in str(err.value)
+
+
+# ------------------------------------------------------------------ mgrid: B against ∇×A (issue #41)
+def _mgrid_two_groups():
+    """Two coil groups: a 1/R toroidal field, A = (0, 0, −B₀R₀ ln R) → B = (0, B₀R₀/R, 0), and a
+    vertical field, A = (0, cR/2, 0) → B = (0, 0, c): B is the exact curl of A (physical
+    cylindrical components), so the spline's ∇×A matches it to interpolation accuracy."""
+    from vpforms.grids import MGrid
+
+    B0R0, c = 1.0, 0.2
+    kw = dict(rmin=0.7, rmax=1.3, zmin=-0.3, zmax=0.3, ir=10, jz=9, kp=6, nfp=2)
+    zero = lambda R, P, Z: 0.0 * R  # noqa: E731
+    return MGrid.from_functions(
+        [lambda R, P, Z: (zero(R, P, Z), B0R0 / R, zero(R, P, Z)), lambda R, P, Z: (zero(R, P, Z), zero(R, P, Z), c + 0 * R)],
+        A=[lambda R, P, Z: (zero(R, P, Z), zero(R, P, Z), -B0R0 * np.log(R)), lambda R, P, Z: (zero(R, P, Z), 0.5 * c * R, zero(R, P, Z))],
+        names=["tf", "vf"], currents=[1.0, 1.0], **kw)
+
+
+def test_mgrid_whose_B_disagrees_with_curl_A_is_refused_with_group_and_place(tmp_path):
+    from vpforms.grids import GridFileError, gridded_field, read_mgrid, write_mgrid
+
+    mg = _mgrid_two_groups()
+    good = tmp_path / "mgrid_good.nc"
+    write_mgrid(mg, good)
+    f = gridded_field(good)  # B and ∇×A agree: accepted, the mismatch reported
+    assert f.grid_report.source == "A" and f.grid_report.curl_error < 1e-2
+    k, j, i = 3, 4, 7  # one cell of group 2's B_Z: 1e300
+    mg.B[1, 2, k, j, i] = 1e300
+    bad = tmp_path / "mgrid_bad.nc"
+    write_mgrid(mg, bad)
+    back = read_mgrid(bad)
+    with pytest.raises(GridFileError) as err:
+        gridded_field(bad)
+    msg = str(err.value)
+    assert str(bad) in msg and "coil group 2 (vf)" in msg and "∇×A" in msg and "\n" not in msg
+    assert f"R = {back.R[i]:.6g}" in msg and f"φ = {back.phi[k]:.6g}" in msg and f"Z = {back.Z[j]:.6g}" in msg

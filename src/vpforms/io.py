@@ -45,6 +45,7 @@ import numpy as np
 __all__ = [
     "StoreMismatchError",
     "StoreVerificationError",
+    "check_metadata",
     "create_store",
     "finish_store",
     "is_done",
@@ -169,13 +170,49 @@ def _consolidate(path: str) -> None:
         zarr.consolidate_metadata(os.fspath(path))
 
 
+def _read_meta(path: str) -> dict:
+    """A store's metadata file (a ``zarr.json``) as a JSON object; :class:`StoreVerificationError`
+    naming the file when it is not one (binary garbage, truncated or invalid JSON)."""
+    try:
+        with open(path, "rb") as fh:
+            meta = json.loads(fh.read().decode("utf-8"))
+    except UnicodeDecodeError as err:
+        raise StoreVerificationError(f"store metadata {path!r} is damaged: not text (byte "
+                                     f"{err.object[err.start]:#04x} at offset {err.start})") from None
+    except json.JSONDecodeError as err:
+        raise StoreVerificationError(f"store metadata {path!r} is damaged: not valid JSON ({err.msg} at "
+                                     f"line {err.lineno}, column {err.colno})") from None
+    if not isinstance(meta, dict):
+        raise StoreVerificationError(f"store metadata {path!r} is damaged: a JSON {type(meta).__name__}, "
+                                     "not an object")
+    return meta
+
+
+def check_metadata(store: str) -> None:
+    """Every metadata file of the store is a JSON object, and each array's ``<name>/zarr.json`` is
+    the copy consolidated in the root ``zarr.json`` (Zarr reads that copy, so a damaged array file
+    would otherwise pass); :class:`StoreVerificationError` naming the first damaged file."""
+    path = os.fspath(store)
+    root = _read_meta(os.path.join(path, "zarr.json"))
+    consolidated = (root.get("consolidated_metadata") or {}).get("metadata") or {}
+    names = sorted(set(consolidated) | {d for d in os.listdir(path) if not d.startswith(".")
+                                        and os.path.isfile(os.path.join(path, d, "zarr.json"))})
+    for name in names:
+        file = os.path.join(path, name, "zarr.json")
+        if not os.path.isfile(file):
+            raise StoreVerificationError(f"store metadata {file!r} is missing (the root zarr.json lists {name!r})")
+        meta = _read_meta(file)
+        if consolidated and meta != consolidated.get(name):
+            raise StoreVerificationError(f"store metadata {file!r} differs from its copy consolidated in "
+                                         f"{os.path.join(path, 'zarr.json')!r}")
+
+
 def open_store(store: str):
     """The store as a lazy xarray Dataset (consolidated metadata: no listing, no warnings)."""
     import xarray as xr
 
     path = os.fspath(store)
-    with open(os.path.join(path, "zarr.json")) as fh:
-        consolidated = "consolidated_metadata" in json.load(fh)
+    consolidated = "consolidated_metadata" in _read_meta(os.path.join(path, "zarr.json"))
     with _quiet():
         return xr.open_zarr(path, consolidated=consolidated)
 
@@ -185,8 +222,7 @@ def store_attrs(store: str) -> dict | None:
     meta = os.path.join(os.fspath(store), "zarr.json")
     if not os.path.exists(meta):
         return None
-    with open(meta) as fh:
-        return json.load(fh).get("attributes", {})
+    return _read_meta(meta).get("attributes", {})
 
 
 def _shown(key: str, value: Any, attrs: dict) -> str:
@@ -412,7 +448,9 @@ def verify_store(store: str) -> dict:
     """Check a whole store: every chunk :func:`verify_chunk`, the coordinates (time, step, coord)
     those of the run's attributes.  Returns a report: ``bad`` ({chunk: why}; empty = verified),
     ``chunks``, ``particles``, ``failed`` (particles with a failure status), ``recovered_steps``,
-    ``recovered_how`` (summed over the markers), ``backend``."""
+    ``recovered_how`` (summed over the markers), ``backend``. A damaged metadata file (a root or
+    array ``zarr.json`` that is not JSON, or an array's that differs from its consolidated copy)
+    raises :class:`StoreVerificationError` naming it."""
     path = os.fspath(store)
     attrs = store_attrs(path)
     if attrs is None:
@@ -420,6 +458,7 @@ def verify_store(store: str) -> dict:
     if attrs.get("store_format") != STORE_FORMAT:
         raise StoreVerificationError(f"store {path!r} has format {attrs.get('store_format', 1)}, not "
                                      f"{STORE_FORMAT}: it has no checksums to verify (rewrite it with --no-resume)")
+    check_metadata(path)  # a damaged zarr.json is named, never read past
     g = _group(path, "r")
     N, C = int(attrs["n_particles"]), int(attrs["chunk_particles"])
     bad: dict[int, str] = {}

@@ -76,9 +76,9 @@ def _field_source(args):
                                            n_Z=args.grid[2], name=args.coils)
             name = f"{args.coils} (spline error {err:.2e})"
         else:
-            from ..grids import gridded_field, read_mgrid
+            from ..grids import gridded_field
 
-            field = gridded_field(_read_input(read_mgrid, args.mgrid, "--mgrid"))
+            field = _read_input(gridded_field, args.mgrid, "--mgrid")  # GridFileError: B ≠ ∇×A too
             name = args.mgrid
         P = field.periods[1] or 2 * math.pi
         nfp = int(round(2 * math.pi / P))

@@ -32,10 +32,11 @@ from ..fields import Field
 from ..toroidal import toroidal_field
 from ._bspline import degree_name
 from ._spline_potential import SplinePotential
-from .mgrid import MGrid, read_mgrid
+from .mgrid import GridFileError, MGrid, read_mgrid
 
 __all__ = [
-    "GridReport", "GridWarning", "cartesian_grid_field", "cylindrical_potential", "gridded_field",
+    "CURL_MISMATCH_LIMIT", "CurlMismatchError", "GridReport", "GridWarning", "cartesian_grid_field",
+    "cylindrical_potential", "gridded_field",
 ]
 
 _TOROIDAL_NAMES = ("u = R²/2", "φ", "Z")
@@ -43,6 +44,16 @@ _TOROIDAL_NAMES = ("u = R²/2", "φ", "Z")
 
 class GridWarning(UserWarning):
     """A gridded field built from B alone (A in a stated gauge, with the measured mismatch)."""
+
+
+class CurlMismatchError(ValueError):
+    """The B of a grid is not the curl of its A (:data:`CURL_MISMATCH_LIMIT`)."""
+
+
+#: the largest max|∇×A − B| accepted from a grid that gives both, relative to the field's scale
+#: (the smaller of max|B| and max|∇×A|): the spline's interpolation error of ∇×A at the nodes is far
+#: below it on any usable grid (1e-3 on 16³ nodes); a corrupt value of B or A gives O(1) or more
+CURL_MISMATCH_LIMIT = 0.05
 
 
 @dataclass(frozen=True)
@@ -89,7 +100,8 @@ def _check_axis(name: str, x: Any) -> np.ndarray:
 
 def cylindrical_potential(R: Any, phi: Any, Z: Any, *, nfp: int = 1, A: Any = None,
                           B: Any = None, degree: int = 3, source: str = "grid",
-                          warn: bool = True) -> tuple[SplinePotential, GridReport]:
+                          warn: bool = True,
+                          curl_tol: float | None = CURL_MISMATCH_LIMIT) -> tuple[SplinePotential, GridReport]:
     """The spline potential in (u = R²/2, φ, Z) of a field sampled on a cylindrical grid.
 
     Parameters
@@ -100,7 +112,9 @@ def cylindrical_potential(R: Any, phi: Any, Z: Any, *, nfp: int = 1, A: Any = No
     A, B:
         Physical cylindrical components (A_R, A_φ, A_Z) / (B_R, B_φ, B_Z), shape
         (3, len(R), len(phi), len(Z)). With A, its covariant components are interpolated (B,
-        if given, is only compared with ∇×A); with B alone, A is integrated along grid lines in
+        if given, is compared with ∇×A at the nodes: a :class:`CurlMismatchError` names the node
+        where they differ by more than ``curl_tol`` (default :data:`CURL_MISMATCH_LIMIT`; None:
+        no check) times the field's scale); with B alone, A is integrated along grid lines in
         the gauge of the module docstring and a :class:`GridWarning` reports the mismatch.
     source:
         A name for messages (the file).
@@ -156,7 +170,8 @@ def cylindrical_potential(R: Any, phi: Any, Z: Any, *, nfp: int = 1, A: Any = No
     #: the (R, φ, Z) box of the grid (for messages)
     pot.cylindrical_box = ((float(R[0]), float(R[-1])), (float(phi[0]), float(phi[0] + T)),
                            (float(Z[0]), float(Z[-1])))
-    err = float("nan") if B is None else _curl_mismatch(pot, u, phi, Z, B)
+    check = curl_tol if (A is not None and B is not None) else None
+    err = float("nan") if B is None else _curl_mismatch(pot, u, phi, Z, B, check, source)
     if how == "A":
         msg = (f"{source}: {desc}; the vector potential was given"
                + ("" if B is None else f"; max|∇×A − B|/max|B| at the grid nodes = {err:.3g}"))
@@ -171,17 +186,46 @@ def cylindrical_potential(R: Any, phi: Any, Z: Any, *, nfp: int = 1, A: Any = No
     return pot, GridReport(how, gauge, err, msg)
 
 
-def _curl_mismatch(pot: SplinePotential, u: np.ndarray, phi: np.ndarray, Z: np.ndarray,
-                   B: np.ndarray) -> float:
-    """max |∇×A − B| / max |B| over the nodes, in physical cylindrical components."""
+def _node_curls(pot: SplinePotential, u: np.ndarray, phi: np.ndarray, Z: np.ndarray,
+                B: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(nodes (N, 3) in (u, φ, Z), ∇×A of the spline and the given B at them (N, 3) in physical
+    cylindrical components (B_R, B_φ, B_Z)), nodes in the order of B's (R, φ, Z) axes."""
     mesh = np.meshgrid(u, phi, Z, indexing="ij")
     pts = np.stack([m.ravel() for m in mesh], axis=-1)
     a = pot.curl(pts)  # contravariant (a^u, a^φ, a^Z)
     R = np.sqrt(2.0 * pts[:, 0])
     Bs = np.stack([a[:, 0] / R, a[:, 1] * R, a[:, 2]], axis=-1)  # (B_R, B_φ, B_Z)
-    Bn = np.moveaxis(B, 0, -1).reshape(-1, 3)
-    scale = max(float(np.max(np.abs(Bn))), np.finfo(float).tiny)
-    return float(np.max(np.abs(Bs - Bn)) / scale)
+    return pts, Bs, np.moveaxis(B, 0, -1).reshape(-1, 3)
+
+
+def _curl_mismatch(pot: SplinePotential, u: np.ndarray, phi: np.ndarray, Z: np.ndarray,
+                   B: np.ndarray, tol: float | None = None, source: str = "grid") -> float:
+    """max |∇×A − B| / max |B| over the nodes, in physical cylindrical components.
+
+    With ``tol``: :class:`CurlMismatchError` when max |∇×A − B| > tol · min(max |B|, max |∇×A|) —
+    the smaller scale, so that one absurd value of either (B = 1e300 in a cell) cannot set the
+    scale it is measured against — naming the node where they differ most."""
+    pts, Bs, Bn = _node_curls(pot, u, phi, Z, B)
+    diff = np.max(np.abs(Bs - Bn), axis=1)
+    tiny = np.finfo(float).tiny
+    err = float(np.max(diff) / max(float(np.max(np.abs(Bn))), tiny))
+    if tol is not None:
+        scale = max(min(float(np.max(np.abs(Bn))), float(np.max(np.abs(Bs)))), tiny)
+        n = int(np.argmax(diff))
+        if diff[n] > tol * scale:
+            raise CurlMismatchError(
+                f"{source}: B disagrees with ∇×A of the interpolated vector potential at the node R = "
+                f"{_g(np.sqrt(2 * pts[n, 0]))}, φ = {_g(pts[n, 1])}, Z = {_g(pts[n, 2])}: B = ({', '.join(map(_g, Bn[n]))}), "
+                f"∇×A = ({', '.join(map(_g, Bs[n]))}), |∇×A − B| = {diff[n]:.3g} > {tol:g} × {scale:.3g} "
+                f"(CURL_MISMATCH_LIMIT × the field's scale): the file's A and B are not one field (a corrupt "
+                "value?); gridded_field(..., use_A=False) builds A from B alone")
+    return err
+
+
+def _g(v: float) -> str:
+    return f"{float(v):.6g}"
+
+
 
 
 def gridded_field(source: MGrid | str | os.PathLike, currents: Sequence[float] | None = None, *,
@@ -192,7 +236,9 @@ def gridded_field(source: MGrid | str | os.PathLike, currents: Sequence[float] |
 
     The coil groups are summed with :meth:`MGrid.total` (``currents`` / ``extcur``). The file's
     vector potential is interpolated when it has one (``use_A``), else A is integrated from B
-    (:func:`cylindrical_potential`: a :class:`GridWarning` says so, with the mismatch). ``box``
+    (:func:`cylindrical_potential`: a :class:`GridWarning` says so, with the mismatch); when the file
+    has both, a B that is not ∇×A (beyond :data:`CURL_MISMATCH_LIMIT`) is a :class:`GridFileError`
+    naming the file, the coil group and the node. ``box``
     defaults to the grid's (u, φ, Z) box, the gauge origin to the grid's centre; further keywords
     go to :meth:`vpforms.Field.from_vector_potential`.
 
@@ -209,14 +255,31 @@ def gridded_field(source: MGrid | str | os.PathLike, currents: Sequence[float] |
     A = None
     if use_A and mg.A is not None:
         A = np.transpose(mg.total(currents, extcur=extcur, potential=True), (0, 3, 1, 2))
-    pot, report = cylindrical_potential(mg.R, mg.phi, mg.Z, nfp=mg.nfp, A=A, B=B, degree=degree,
-                                        source=label, warn=False)
+    try:
+        pot, report = cylindrical_potential(mg.R, mg.phi, mg.Z, nfp=mg.nfp, A=A, B=B, degree=degree,
+                                            source=label, warn=False)
+    except CurlMismatchError as exc:
+        raise GridFileError(_mismatched_group(mg, label, degree, exc)) from None
     if report.source == "B":
         warnings.warn(report.message, GridWarning, stacklevel=2)
     kw.setdefault("origin", pot.center)
     field = toroidal_field(pot, box if box is not None else pot.grid_box, nfp=mg.nfp,
                            name=name or f"mgrid field ({os.path.basename(label)})", **kw)
     return _attach(field, pot, report, _TOROIDAL_NAMES)
+
+
+def _mismatched_group(mg: MGrid, label: str, degree: int, exc: CurlMismatchError) -> str:
+    """The message of a summed field whose B is not ∇×A, naming the first coil group whose own B
+    is not the curl of its own A (the sum's message when each group alone passes)."""
+    for g in range(mg.nextcur):
+        A = np.transpose(mg.A[g], (0, 3, 1, 2))
+        B = np.transpose(mg.B[g], (0, 3, 1, 2))
+        try:
+            cylindrical_potential(mg.R, mg.phi, mg.Z, nfp=mg.nfp, A=A, B=B, degree=degree,
+                                  source=f"{label}, coil group {g + 1} ({mg.names[g]})", warn=False)
+        except CurlMismatchError as group_exc:
+            return str(group_exc)
+    return str(exc)
 
 
 def cartesian_grid_field(nodes: Sequence[Any], A: Any, *, degree: int = 3,
