@@ -279,3 +279,28 @@ def test_mgrid_whose_B_disagrees_with_curl_A_is_refused_with_group_and_place(tmp
     msg = str(err.value)
     assert str(bad) in msg and "coil group 2 (vf)" in msg and "∇×A" in msg and "\n" not in msg
     assert f"R = {back.R[i]:.6g}" in msg and f"φ = {back.phi[k]:.6g}" in msg and f"Z = {back.Z[j]:.6g}" in msg
+
+
+# ------------------------------------------------------------ a coil wire inside the grid (issue #41)
+def test_cli_coil_wire_inside_the_spline_grid_names_the_coil_and_the_point(tmp_path, capsys):
+    """A wire through the (R, Z) box of the spline grid: A and B are singular on it (non-finite at
+    a node on the wire, a large spline error near it); refused before the grid is built."""
+    path = _coil_file(tmp_path, [("1.0", "0.0", "0.0"), ("0.0", "1.0", "0.0"), ("-1.0", "0.0", "0.0"),
+                                 ("0.0", "-1.0", "0.0")])
+    outs = ["--png", str(tmp_path / "a.png"), "--iota-png", str(tmp_path / "b.png"), "--csv", str(tmp_path / "c.csv")]
+    assert main(["fieldlines", "--coils", str(path), "--R", "0.8,1.2", "--Z", "-0.2,0.2", "--axis-guess", "1,0.1",
+                 *outs]) == 2
+    line = _error_line(capsys)
+    assert "coil 0 'ring' (group 1)" in line and "R = 1, φ = 0, Z = 0" in line and "R ∈ [0.8, 1.2]" in line
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["coils.test"]
+
+
+def test_a_grid_node_where_A_is_not_finite_is_named():
+    from vpforms.grids import cylindrical_potential
+
+    R, phi, Z = np.linspace(0.8, 1.2, 5), np.linspace(0, 2 * np.pi, 4, endpoint=False), np.linspace(-0.2, 0.2, 5)
+    A = np.ones((3, 5, 4, 5))
+    A[1, 2, 1, 3] = np.inf
+    with pytest.raises(ValueError, match=r"src: A has a non-finite value \(inf\) in A_φ at the node R = 1, "
+                                         r"φ = 1\.5708, Z = 0\.1"):
+        cylindrical_potential(R, phi, Z, A=A, source="src")

@@ -59,6 +59,33 @@ def _read_input(read, path: str, option: str):
         raise CLIError(str(exc)) from None
 
 
+#: points per segment at which a coil wire is tested against the grid's box (and the vertices)
+_WIRE_SAMPLES = 32
+
+
+def _refuse_wires_in_grid(coils, path: str, R: tuple, Z: tuple) -> None:
+    """CLIError naming the first coil whose wire passes through the (R, Z) box of the spline grid
+    (any φ: the grid covers the torus by periodicity): the coils' A and B are singular on the wire,
+    so the spline is non-finite at a node on it and wrong near it. Each segment is sampled at
+    ``_WIRE_SAMPLES`` points besides its ends."""
+    if len(R) != 2 or len(Z) != 2 or not (0 < R[0] < R[1]) or not Z[0] < Z[1]:
+        raise CLIError(f"--R and --Z take RMIN,RMAX and ZMIN,ZMAX with 0 < RMIN < RMAX, ZMIN < ZMAX; "
+                       f"got --R {','.join(map(str, R))} --Z {','.join(map(str, Z))}")
+    s = np.linspace(0.0, 1.0, _WIRE_SAMPLES, endpoint=False)[:, None, None]
+    for n, coil in enumerate(coils):
+        a, b = coil.segments()
+        p = (a[None] + s * (b - a)[None]).transpose(1, 0, 2).reshape(-1, 3)  # segment by segment
+        r = np.hypot(p[:, 0], p[:, 1])
+        inside = np.flatnonzero((r >= R[0]) & (r <= R[1]) & (p[:, 2] >= Z[0]) & (p[:, 2] <= Z[1]))
+        if inside.size:
+            q = p[inside[0]]
+            name = f" {coil.name!r}" if coil.name else ""
+            raise CLIError(
+                f"{path}: coil {n}{name} (group {coil.group}) passes through the spline grid R ∈ [{R[0]:g}, "
+                f"{R[1]:g}], Z ∈ [{Z[0]:g}, {Z[1]:g}] at R = {r[inside[0]]:.6g}, φ = {math.atan2(q[1], q[0]):.6g}, "
+                f"Z = {q[2]:.6g}: its field is singular on the wire; choose --R/--Z clear of the coils")
+
+
 def _field_source(args):
     """(field, nfp, axis guess, default start radii span, name, default wall or None) of the chosen source."""
     from .. import problems
@@ -72,6 +99,7 @@ def _field_source(args):
             if not (args.R and args.Z):
                 raise CLIError("--coils needs the grid box: --R RMIN,RMAX --Z ZMIN,ZMAX")
             coils = _read_input(read_makegrid, args.coils, "--coils")
+            _refuse_wires_in_grid(coils, args.coils, tuple(args.R), tuple(args.Z))
             field, err = spline_coil_field(coils, tuple(args.R), tuple(args.Z), n_R=args.grid[0], n_phi=args.grid[1],
                                            n_Z=args.grid[2], name=args.coils)
             name = f"{args.coils} (spline error {err:.2e})"

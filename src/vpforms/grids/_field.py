@@ -138,7 +138,10 @@ def cylindrical_potential(R: Any, phi: Any, Z: Any, *, nfp: int = 1, A: Any = No
                 raise ValueError(f"{source}: {what} must have shape (3, nR, nφ, nZ) = {shape}; "
                                  f"got {arr.shape}")
             if not np.all(np.isfinite(arr)):
-                raise ValueError(f"{source}: {what} has non-finite values")
+                c, i, k, j = (int(v) for v in np.argwhere(~np.isfinite(arr))[0])
+                raise ValueError(f"{source}: {what} has a non-finite value ({arr[c, i, k, j]}) in "
+                                 f"{what}_{'RφZ'[c]} at the node R = {_g(R[i])}, φ = {_g(phi[k])}, "
+                                 f"Z = {_g(Z[j])} (a coil wire through the grid?)")
     if A is None and B is None:
         raise ValueError("give the vector potential A or the field B on the grid")
     if phi.size == 1:  # axisymmetric: constant in φ — any number of identical planes is exact
