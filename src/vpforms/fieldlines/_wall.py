@@ -33,7 +33,8 @@ from ..backends.native.walls import run_wall
 from ..diagnostics._common import _chunks, _pad
 from ..diagnostics._locate import illinois
 from ._geometry import cylindrical, is_toroidal, speed
-from .._polygon import Wall, _fmt, _inside_kernel, _signed_distance_kernel
+from .._polygon import Wall, _fmt
+from ..domains import ToroidalDomain, as_domain, boundary_inside, boundary_signed_distance
 
 __all__ = ["Wall", "WallHits", "trace_to_wall"]
 
@@ -141,9 +142,9 @@ def _wrap(d):
 
 
 @partial(jax.jit, static_argnums=(0, 1, 2))
-def _wall_scan(step_fn, n_steps, toroidal, Rv, Zv, x, st, step, Xo, s, phi, L, dphi, n0, h, n_stop):
+def _wall_scan(step_fn, n_steps, toroidal, geom, x, st, step, Xo, s, phi, L, dphi, n0, h, n_stop):
     """n_steps steps from step n0 (steps ≥ n_stop skipped), per line: stop at the first new point
-    outside the polygon (record n and that point Xo, keep x = x_n), accumulate the trapezoid
+    outside the boundary ``geom`` (:mod:`vpforms.domains`) (record n and that point Xo, keep x = x_n), accumulate the trapezoid
     ∫|B| |dt| in L and the toroidal angle in dphi."""
     field = step_fn.method.field
     ah = jnp.abs(h)
@@ -160,7 +161,7 @@ def _wall_scan(step_fn, n_steps, toroidal, Rv, Zv, x, st, step, Xo, s, phi, L, d
             alive = st == RESULTS.successful
             good = alive & (code == RESULTS.successful)
             R, ph, Z = cylindrical(X, toroidal)
-            out = good & ~_inside_kernel(Rv, Zv, R, Z)
+            out = good & ~boundary_inside(geom, R, ph, Z)
             adv = good & ~out
             sX = speed(X, field(X), toroidal)
             d = ph - phi if toroidal else _wrap(ph - phi)
@@ -178,14 +179,14 @@ def _wall_scan(step_fn, n_steps, toroidal, Rv, Zv, x, st, step, Xo, s, phi, L, d
 
 
 @partial(jax.jit, static_argnums=(0, 1))
-def _exit_kernel(step_fn, toroidal, Rv, Zv, x, X1, s, h, tol):
-    """The exit Ψ_{θh}(x) on the polygon for each line (x inside, X1 = Ψ_h(x) outside): (point, θ,
+def _exit_kernel(step_fn, toroidal, geom, x, X1, s, h, tol):
+    """The exit Ψ_{θh}(x) on the boundary for each line (x inside, X1 = Ψ_h(x) outside): (point, θ,
     the θ-fraction of the trapezoid ∫|B| |dt|, the toroidal angle increment, fallback)."""
     field = step_fn.method.field
 
     def sd(Y):
-        R, _, Z = cylindrical(Y, toroidal)
-        return _signed_distance_kernel(Rv, Zv, R, Z)
+        R, ph, Z = cylindrical(Y, toroidal)
+        return boundary_signed_distance(geom, R, ph, Z)
 
     def one(x, X1, s):
         g0, g1 = sd(x), sd(X1)
@@ -222,7 +223,7 @@ def trace_to_wall(
     x0: Any,
     h: float,
     n_steps: int,
-    wall: Wall,
+    wall: Wall | ToroidalDomain,
     *,
     t0: float = 0.0,
     chunk_size: int | None = None,
@@ -247,6 +248,10 @@ def trace_to_wall(
         A vpforms method (``step_with_status``) with a ``field`` (:class:`vpforms.Field`):
         Cartesian (major axis x₃), or toroidal coordinates (u = R²/2, φ, Z) (``field.coordinates``
         starting with "toroidal", :mod:`vpforms.toroidal`).
+    wall:
+        A :class:`Wall` (a polygon, the same at every φ) or a :class:`vpforms.domains.ToroidalDomain`
+        (a boundary that depends on φ: a domain that follows the plasma); the test and the signed
+        distance are those of the boundary at the point's own φ.
     x0:
         (N, 3) or (3,) starting points in the field's own coordinates, all inside the wall (else a
         ValueError naming the first one outside and its (R, Z)).
@@ -283,19 +288,20 @@ def trace_to_wall(
     tor = is_toroidal(field)
     N = pts.shape[0]
     backend, reason = wall_backend(method, backend)
-    Rv, Zv = jnp.asarray(wall._Rv), jnp.asarray(wall._Zv)
-    tol = jnp.asarray(2.5e-16 * max(wall._scale, 1e-300))  # about an ulp of the coordinates
+    dom = as_domain(wall)
+    geom = dom.geometry
+    tol = jnp.asarray(2.5e-16 * max(dom._scale, 1e-300))  # about an ulp of the coordinates
     hj = jnp.asarray(h)
-    finish = partial(_finish, pts, tor, wall, Rv, Zv, tol, hj, h, n_steps, t0, method, backend, reason)
+    finish = partial(_finish, pts, tor, wall, geom, tol, hj, h, n_steps, t0, method, backend, reason)
 
     if backend == "native":
-        return finish(_trace_native(method, pts, h, n_steps, wall, tor, progress), _StepFn(bare_method(method)))
+        return finish(_trace_native(method, pts, h, n_steps, dom, tor, progress), _StepFn(bare_method(method)))
 
     C = max(1, min(N, chunk_size or auto_chunk_size(N)))
 
     def trace(m):
         fn = _StepFn(m)
-        return finish(_trace_jax(fn, pts, h, n_steps, tor, Rv, Zv, hj, C, progress), fn)
+        return finish(_trace_jax(fn, pts, h, n_steps, tor, geom, hj, C, progress), fn)
 
     # a recovering method: the bare scan first, the recovering one only where a bare step (or a
     # locating sub-step) failed; leaving the wall or the field's domain is a stop, not a failure
@@ -306,26 +312,28 @@ def trace_to_wall(
 def check_wall_run(method: Any, x0: Any, h: Any, n_steps: Any, wall: Any, t0: Any) -> tuple[np.ndarray, float, int]:
     """The argument checks of :func:`trace_to_wall` (every line starting inside the wall included):
     (points (N, 3), h, n_steps)."""
-    if not isinstance(wall, Wall):
-        raise TypeError(f"wall must be a vpforms Wall (Wall(R, Z), Wall.box, Wall.circle); got {type(wall).__name__}")
+    if not isinstance(wall, (Wall, ToroidalDomain)):
+        raise TypeError(f"wall must be a vpforms Wall (Wall(R, Z), Wall.box, Wall.circle) or a ToroidalDomain "
+                        f"(vpforms.domains); got {type(wall).__name__}")
     pts, _, h, n_steps = _check_run(method, x0, h, n_steps, t0)
     field = getattr(method, "field", None)
     if not callable(field):
         raise TypeError("trace_to_wall needs a method with a .field (the vpforms.Field it integrates) to "
                         "compute |B|")
-    _check_start(pts, is_toroidal(field), wall)
+    _check_start(pts, is_toroidal(field), as_domain(wall), wall)
     return pts, h, n_steps
 
 
-def _check_start(pts: np.ndarray, tor: bool, wall: Wall) -> None:
-    """ValueError naming the first point that does not start inside ``wall``."""
-    R0, _ = _cylindrical_np(pts, tor)
-    start_in = wall.contains(np.stack([R0, pts[:, 2]], axis=1))
+def _check_start(pts: np.ndarray, tor: bool, dom: ToroidalDomain, wall: Any) -> None:
+    """ValueError naming the first point that does not start inside ``wall`` (as the domain ``dom``)."""
+    R0, phi0 = _cylindrical_np(pts, tor)
+    start_in = dom.contains(np.stack([R0, phi0, pts[:, 2]], axis=1))
     if not start_in.all():
         i = int(np.flatnonzero(~start_in)[0])
         n_out = int((~start_in).sum())
         more = f" ({n_out} of {pts.shape[0]} points outside)" if n_out > 1 else ""
-        raise ValueError(f"x0[{i}] starts outside the wall: its (R, Z) = {_fmt(R0[i], pts[i, 2])} is not inside "
+        where = f"(R, Z) = {_fmt(R0[i], pts[i, 2])}" + ("" if isinstance(wall, Wall) else f" at φ = {phi0[i]:.6g}")
+        raise ValueError(f"x0[{i}] starts outside the wall: its {where} is not inside "
                          f"{wall!r}{more}; every line must start inside the wall")
 
 
@@ -354,7 +362,7 @@ def _native_reason(method: Any) -> str | None:
     return field_reason(method.field)
 
 
-def _trace_jax(fn, pts, h, n_steps, tor, Rv, Zv, hj, C, progress) -> dict:
+def _trace_jax(fn, pts, h, n_steps, tor, geom, hj, C, progress) -> dict:
     """The JAX scan to the wall, chunk by chunk: the raw per-line arrays of :func:`_finish`."""
     N = pts.shape[0]
     # segments of 64…1024 steps, a power of two (≥ ~20 per chunk for a live bar): one compilation
@@ -375,7 +383,7 @@ def _trace_jax(fn, pts, h, n_steps, tor, Rv, Zv, hj, C, progress) -> dict:
             done = 0
             while done < n_steps:
                 x, st, step, Xo, s, phi, L, dphi = _wall_scan(
-                    fn, seg, tor, Rv, Zv, x, st, step, Xo, s, phi, L, dphi, jnp.asarray(done), hj,
+                    fn, seg, tor, geom, x, st, step, Xo, s, phi, L, dphi, jnp.asarray(done), hj,
                     jnp.asarray(n_steps))
                 k = min(seg, n_steps - done)
                 done += k
@@ -392,26 +400,26 @@ def _trace_jax(fn, pts, h, n_steps, tor, Rv, Zv, hj, C, progress) -> dict:
     return dict(status=st_o, step=step_o, x=x_o, X_out=X_o, s=s_o, L=L_o, dphi=dphi_o)
 
 
-def _trace_native(method, pts, h, n_steps, wall, tor, progress) -> dict:
+def _trace_native(method, pts, h, n_steps, dom, tor, progress) -> dict:
     """The native trace to the wall (``vp_wall``, :mod:`vpforms.backends.native.walls`): the raw
     per-line arrays of :func:`_finish`."""
     field = method.field
     spd = jax.jit(jax.vmap(lambda X: speed(X, field(X), tor)))
 
-    def inside(R, Z):  # the JAX test, for steps recovered through JAX
-        return wall.contains(np.stack([R, Z], axis=1))
+    def inside(R, phi, Z):  # the JAX test, for steps recovered through JAX
+        return dom.contains(np.stack([R, phi, Z], axis=1))
 
     bar = _Bar(progress, pts.shape[0] * n_steps, "Tracing to the wall (native)")
     try:
         # below this margin (about 1e-12 of the wall's size) the kernel tests a point fully
-        r = run_wall(method, pts, h, n_steps, (wall._Rv, wall._Zv), 1e-12 * wall._scale, tor, inside,
+        r = run_wall(method, pts, h, n_steps, dom, 1e-12 * dom._scale, tor, inside,
                      lambda X: np.asarray(spd(jnp.asarray(X))), bar.update)
     finally:
         bar.close()
     return dict(status=r.status, step=r.step, x=r.x, X_out=r.X_out, s=r.s, L=r.L.copy(), dphi=r.dphi.copy())
 
 
-def _finish(pts, tor, wall, Rv, Zv, tol, hj, h, n_steps, t0, method, backend, reason, raw, fn) -> WallHits:
+def _finish(pts, tor, wall, geom, tol, hj, h, n_steps, t0, method, backend, reason, raw, fn) -> WallHits:
     """Locate the exits of the lines that hit (on the step family of ``fn``; a recovering method's
     family again where the bare one could not) and assemble the :class:`WallHits`."""
     N = pts.shape[0]
@@ -419,12 +427,12 @@ def _finish(pts, tor, wall, Rv, Zv, tol, hj, h, n_steps, t0, method, backend, re
     L_o, dphi_o = raw["L"], raw["dphi"]
     hit = step_o >= 0
     rows = np.flatnonzero(hit)
-    Y, th, dL, dph, fb = _locate_exits(fn, tor, Rv, Zv, x_o[rows], X_o[rows], s_o[rows], hj, tol)
+    Y, th, dL, dph, fb = _locate_exits(fn, tor, geom, x_o[rows], X_o[rows], s_o[rows], hj, tol)
     if backend == "native" and fb.any() and bare_method(method) is not method:
         # a sub-step of the bare family failed: the recovering family, as the JAX path's rerun
         r = np.flatnonzero(fb)
         Y[r], th[r], dL[r], dph[r], fb[r] = _locate_exits(
-            _StepFn(method), tor, Rv, Zv, x_o[rows[r]], X_o[rows[r]], s_o[rows[r]], hj, tol)
+            _StepFn(method), tor, geom, x_o[rows[r]], X_o[rows[r]], s_o[rows[r]], hj, tol)
     nan3 = np.full((N, 3), np.nan)
     exit_point, theta = nan3.copy(), np.full(N, np.nan)
     exit_point[rows], theta[rows] = Y, th
@@ -452,13 +460,13 @@ def _finish(pts, tor, wall, Rv, Zv, tol, hj, h, n_steps, t0, method, backend, re
 EXIT_BATCH = 256
 
 
-def _locate_exits(fn, tor, Rv, Zv, x, X, s, hj, tol):
+def _locate_exits(fn, tor, geom, x, X, s, hj, tol):
     """:func:`_exit_kernel` over (M, 3) exits in padded batches of :data:`EXIT_BATCH`."""
     M = x.shape[0]
     Y, th, dL, dph, fb = np.zeros((M, 3)), np.zeros(M), np.zeros(M), np.zeros(M), np.zeros(M, bool)
     B = EXIT_BATCH
     for lo, hi in _chunks(M, B):
-        out = _exit_kernel(fn, tor, Rv, Zv, jnp.asarray(_pad(x[lo:hi], B)), jnp.asarray(_pad(X[lo:hi], B)),
+        out = _exit_kernel(fn, tor, geom, jnp.asarray(_pad(x[lo:hi], B)), jnp.asarray(_pad(X[lo:hi], B)),
                            jnp.asarray(_pad(s[lo:hi, None], B)[:, 0]), hj, tol)
         Y[lo:hi], th[lo:hi], dL[lo:hi], dph[lo:hi], fb[lo:hi] = (np.asarray(a)[: hi - lo] for a in out)
     return Y, th, dL, dph, fb

@@ -1,8 +1,9 @@
-"""Field lines traced natively until they leave a wall polygon (``vp_wall``, :mod:`.codegen.walls`).
+"""Field lines traced natively until they leave a wall or a domain (``vp_wall``, :mod:`.codegen.walls`).
 
 :func:`run_wall` advances points as :func:`.runner.run_points` does (the same steps, the same lazy
 JAX recovery of failed steps) and stops each line at the first step whose new point is outside the
-polygon, as :func:`vpforms.fieldlines.trace_to_wall`'s JAX scan does: the line keeps x_n, its
+boundary (a polygon per φ: :mod:`vpforms.domains`), as :func:`vpforms.fieldlines.trace_to_wall`'s
+JAX scan does: the line keeps x_n, its
 status becomes ``left_domain``, and the step index n and the outside point X are kept for the exit
 to be located afterwards. The connection length ∫|B| |dt| and the toroidal angle are accumulated
 per line. A step recovered through JAX is given the same treatment here, by the caller's ``inside``
@@ -33,11 +34,13 @@ class WallRun:
     """The per-line accumulators of one native wall trace, kept between kernel calls; ``advance`` and
     ``recovered`` are what :func:`vpforms.backends._advance.advance_with_recovery` calls on its ``events``."""
 
-    def __init__(self, N: int, polygon: tuple[np.ndarray, np.ndarray], tolm: float, toroidal: bool,
-                 inside: Callable[[np.ndarray, np.ndarray], np.ndarray], speed: Callable[[np.ndarray], np.ndarray],
-                 h: float):
+    def __init__(self, N: int, boundary: Any, tolm: float, toroidal: bool,
+                 inside: Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray],
+                 speed: Callable[[np.ndarray], np.ndarray], h: float):
         self.h = float(h)
-        self.Rv, self.Zv = (np.ascontiguousarray(a, dtype=np.float64) for a in polygon)
+        self.pp, self.Rv, self.Zv = (np.ascontiguousarray(a, dtype=np.float64)
+                                     for a in (boundary.phis, boundary.R, boundary.Z))
+        self.period, self.vspeed = float(boundary.period), float(boundary.vertex_speed)
         self.tolm, self.toroidal = float(tolm), bool(toroidal)
         self.inside, self.speed = inside, speed
         self.s, self.phi, self.L, self.dphi, self.mg = (np.zeros(N) for _ in range(5))
@@ -54,7 +57,8 @@ class WallRun:
 
         kernel.lib.lib.vp_wall(
             x.shape[0], d(x), f.cast("int32_t *", status.ctypes.data), f.cast("int64_t *", n.ctypes.data),
-            int(n_target), float(h), int(self.toroidal), self.Rv.size, d(self.Rv), d(self.Zv), self.tolm,
+            int(n_target), float(h), int(self.toroidal), self.pp.size, d(self.pp), self.period, self.vspeed,
+            self.Rv.shape[1], d(self.Rv), d(self.Zv), self.tolm,
             int(self._init), d(self.s), d(self.phi), d(self.L), d(self.dphi), d(self.mg),
             f.cast("int64_t *", self.step.ctypes.data), d(self.Xo), kernel._fd())
         self._init = False
@@ -68,7 +72,7 @@ class WallRun:
         the wall stop there (returned mask: the caller keeps them at x with status ``left_domain``);
         the others accumulate as the kernel does."""
         R, ph, Z = _cylindrical(X, self.toroidal)
-        out = ~np.asarray(self.inside(R, Z), bool)
+        out = ~np.asarray(self.inside(R, ph, Z), bool)
         o, k = idx[out], idx[~out]
         self.step[o], self.Xo[o] = n[out], X[out]
         if k.size:
@@ -100,16 +104,17 @@ class WallTrace:
     how: dict
 
 
-def run_wall(method: Any, pts: np.ndarray, h: float, n_steps: int, polygon: tuple[np.ndarray, np.ndarray],
+def run_wall(method: Any, pts: np.ndarray, h: float, n_steps: int, boundary: Any,
              tolm: float, toroidal: bool, inside: Callable, speed: Callable,
              progress_cb: Callable[[int], Any] | None = None, calls: int = CALLS) -> WallTrace:
     """Advance points (N, 3) natively for at most n_steps steps of h, stopping each line where it
-    leaves the polygon (vertices ``polygon`` = (R, Z), open); ``tolm`` the margin under which the
-    kernel tests a point fully; ``inside(R, Z)`` and ``speed(X)`` the test and |B| for steps
+    leaves the ``boundary`` (a :class:`vpforms.domains.ToroidalDomain`: polygons on planes, linear in
+    φ between them); ``tolm`` the margin under which the kernel tests a point fully;
+    ``inside(R, φ, Z)`` and ``speed(X)`` the test and |B| for steps
     recovered through JAX. At most ``calls`` kernel calls (the progress bar's granularity)."""
     kernel = kernel_for(method, "auto", "wall")
     N = pts.shape[0]
-    run = WallRun(N, polygon, tolm, toroidal, inside, speed, h)
+    run = WallRun(N, boundary, tolm, toroidal, inside, speed, h)
     x, status, _, recovered, how = run_with_events(kernel, method, pts, h, n_steps, run, progress_cb, calls)
     if N and run._init:  # n_steps = 0: no call was made; |B| at the starting points still counts
         run.s[:] = np.asarray(speed(x))

@@ -5,12 +5,14 @@ lane takes from x_n to X = Ψ_h(x_n):
 
 * the cylindrical (R, φ, Z) of X (Cartesian points: R = hypot(X₁, X₂), φ = atan2(X₂, X₁); the
   toroidal coordinates (u = R²/2, φ, Z): R = √(2u), φ = X₂);
-* the wall's even-odd test on (R, Z) (the same arithmetic as ``_inside_kernel`` of
-  :mod:`vpforms._polygon`). A lane carries a *margin*: the distance from its last fully
-  tested point to the polygon minus the length of the (R, Z) chords it has moved since. While the
-  margin is positive the point is inside (the distance is 1-Lipschitz: a path shorter than the
-  distance stays in the open disc that holds no edge), so the O(vertices) test runs only near the
-  wall;
+* the even-odd test on (R, Z) of the boundary at the point's φ (the same arithmetic as
+  :func:`vpforms.domains.boundary_inside`: a wall polygon, or the polygons of a
+  :class:`~vpforms.domains.ToroidalDomain` interpolated linearly in φ between its planes). A lane
+  carries a *margin*: the distance from its last fully tested point to the boundary minus the
+  length of the (R, Z) chords it has moved since and minus ``vspeed``·|Δφ| (the boundary's vertices
+  move at most ``vspeed`` per radian; 0 for a wall). While the margin is positive the point is
+  inside (the distance is Lipschitz: a path shorter than the distance stays in the open disc that
+  holds no edge), so the O(vertices) test runs only near the boundary;
 * outside: the lane stops with status ``left_domain`` and stays at x_n (its step index n), and
   the kernel records n and X, for the exit to be located on the step family afterwards;
 * inside: the trapezoid ∫|B| |dt| += |h| (|B(x_n)| + |B(X)|)/2 (|B| from the field's C, in
@@ -36,7 +38,8 @@ from .assign import _C, _assign
 __all__ = ["WALL_CDEF", "speed_fn", "wall_entry"]
 
 WALL_CDEF = ("void vp_wall(int64_t N, double *x, int32_t *status, int64_t *n, int64_t n_target, double h, "
-             "int32_t toroidal, int64_t nv, const double *Rv, const double *Zv, double tolm, int32_t init, "
+             "int32_t toroidal, int64_t np_, const double *pp, double period, double vspeed, "
+             "int64_t nv, const double *Rv, const double *Zv, double tolm, int32_t init, "
              "double *s, double *phi, double *L, double *dphi, double *mg, int64_t *step, double *Xo, "
              "const double *fd);")
 
@@ -78,24 +81,50 @@ static inline _VP_INLINE void vp_cyl(int32_t tor, double a1, double a2, double *
     *R = tor ? sqrt(2.0 * a1) : hypot(a1, a2);
     *ph = tor ? a2 : atan2(a2, a1);
 }
-/* even-odd rule: a ray from (R, Z) towards +R crosses an odd number of edges */
-static int vp_wall_inside(int64_t nv, const double *Rv, const double *Zv, double R, double Z) {
+/* the boundary at φ (vpforms.domains): planes pp[0] < … < pp[np_−1] of one period, vertices
+   V(φ) = (1 − w) V_j + w V_j2 between planes j and j2 (one plane: w = 0, its vertices exactly);
+   the arithmetic of vpforms.domains._vertices_at (jnp.mod: fmod, then + period where the signs differ) */
+static void vp_wall_plane(int64_t np_, const double *pp, double period, double ph,
+                          int64_t *j, int64_t *j2, double *w) {
+    if (np_ == 1) { *j = 0; *j2 = 0; *w = 0.0; return; }
+    double r = fmod(ph - pp[0], period);
+    if (r != 0.0 && (r < 0.0) != (period < 0.0)) r += period;
+    double s = pp[0] + r;
+    int64_t a = 0;
+    while (a + 1 < np_ && pp[a + 1] <= s) a++;
+    double hi = a + 1 < np_ ? pp[a + 1] : pp[0] + period;
+    *j = a; *j2 = a + 1 < np_ ? a + 1 : 0; *w = (s - pp[a]) / (hi - pp[a]);
+}
+#define VP_VR(k) ((1.0 - w) * Rv[j * nv + (k)] + w * Rv[j2 * nv + (k)])
+#define VP_VZ(k) ((1.0 - w) * Zv[j * nv + (k)] + w * Zv[j2 * nv + (k)])
+/* even-odd rule: a ray from (R, Z) towards +R crosses an odd number of edges of V(φ) */
+static int vp_wall_inside(int64_t np_, const double *pp, double period, int64_t nv, const double *Rv,
+                          const double *Zv, double R, double ph, double Z) {
+    int64_t j, j2;
+    double w;
+    vp_wall_plane(np_, pp, period, ph, &j, &j2, &w);
     int odd = 0;
     for (int64_t k = 0; k < nv; k++) {
         int64_t k2 = k + 1 == nv ? 0 : k + 1;
-        int straddle = (Zv[k] > Z) != (Zv[k2] > Z);
-        double dz = straddle ? Zv[k2] - Zv[k] : 1.0;
-        double Rx = Rv[k] + (Z - Zv[k]) / dz * (Rv[k2] - Rv[k]);
+        double R1 = VP_VR(k), Z1 = VP_VZ(k), R2 = VP_VR(k2), Z2 = VP_VZ(k2);
+        int straddle = (Z1 > Z) != (Z2 > Z);
+        double dz = straddle ? Z2 - Z1 : 1.0;
+        double Rx = R1 + (Z - Z1) / dz * (R2 - R1);
         odd ^= straddle & (R < Rx);
     }
     return odd;
 }
-/* the distance from (R, Z) to the nearest edge */
-static double vp_wall_dist(int64_t nv, const double *Rv, const double *Zv, double R, double Z) {
+/* the distance from (R, Z) to the nearest edge of V(φ) */
+static double vp_wall_dist(int64_t np_, const double *pp, double period, int64_t nv, const double *Rv,
+                           const double *Zv, double R, double ph, double Z) {
+    int64_t j, j2;
+    double w;
+    vp_wall_plane(np_, pp, period, ph, &j, &j2, &w);
     double best = INFINITY;
     for (int64_t k = 0; k < nv; k++) {
         int64_t k2 = k + 1 == nv ? 0 : k + 1;
-        double dR = Rv[k2] - Rv[k], dZ = Zv[k2] - Zv[k], pR = R - Rv[k], pZ = Z - Zv[k];
+        double R1 = VP_VR(k), Z1 = VP_VZ(k);
+        double dR = VP_VR(k2) - R1, dZ = VP_VZ(k2) - Z1, pR = R - R1, pZ = Z - Z1;
         double t = (pR * dR + pZ * dZ) / (dR * dR + dZ * dZ);
         t = t < 0.0 ? 0.0 : t > 1.0 ? 1.0 : t;
         double eR = pR - t * dR, eZ = pZ - t * dZ, d = eR * eR + eZ * eZ;
@@ -103,8 +132,11 @@ static double vp_wall_dist(int64_t nv, const double *Rv, const double *Zv, doubl
     }
     return sqrt(best);
 }
+#undef VP_VR
+#undef VP_VZ
 void vp_wall(int64_t N, double *x, int32_t *status, int64_t *n, int64_t n_target, double h,
-             int32_t toroidal, int64_t nv, const double *Rv, const double *Zv, double tolm, int32_t init,
+             int32_t toroidal, int64_t np_, const double *pp, double period, double vspeed,
+             int64_t nv, const double *Rv, const double *Zv, double tolm, int32_t init,
              double *s, double *phi, double *L, double *dphi, double *mg, int64_t *step, double *Xo,
              const double *fd) {
     int64_t nb = (N + B - 1) / B;
@@ -138,21 +170,22 @@ void vp_wall(int64_t N, double *x, int32_t *status, int64_t *n, int64_t n_target
                 double R, ph;
                 vp_cyl(toroidal, a1[i], a2[i], &R, &ph);
                 double dR = R - wR[i], dZ = a3[i] - p3[i], d = ph - wp[i];
-                double mgn = wm[i] - sqrt(dR * dR + dZ * dZ);
+                cd[i] = toroidal ? d : d - 2.0 * VP_PI * floor((d + VP_PI) / (2.0 * VP_PI));
+                /* the boundary moves by at most vspeed·|Δφ| (vpforms.domains: Lipschitz in φ) */
+                double mgn = wm[i] - sqrt(dR * dR + dZ * dZ) - vspeed * fabs(cd[i]);
                 int adv = nn[i] != n0[i];
                 full[i] = adv & !(mgn > tolm);
                 anyfull |= full[i];
                 wm[i] = adv ? mgn : wm[i];
                 cs[i] = vp_speed(a1[i], a2[i], a3[i], toroidal, fd);
-                cd[i] = toroidal ? d : d - 2.0 * VP_PI * floor((d + VP_PI) / (2.0 * VP_PI));
                 cp[i] = ph; cR[i] = R;
             }
             /* near the wall (or the first step): the full test; outside, the line stops at x_n and
                the kernel records the exit step n and X */
             if (anyfull) for (int i = 0; i < m; i++) {
                 if (!full[i]) continue;
-                int in = vp_wall_inside(nv, Rv, Zv, cR[i], a3[i]);
-                wm[i] = in ? vp_wall_dist(nv, Rv, Zv, cR[i], a3[i]) : 0.0;
+                int in = vp_wall_inside(np_, pp, period, nv, Rv, Zv, cR[i], cp[i], a3[i]);
+                wm[i] = in ? vp_wall_dist(np_, pp, period, nv, Rv, Zv, cR[i], cp[i], a3[i]) : 0.0;
                 if (in) continue;
                 int64_t j = lo + i;
                 step[j] = n0[i];

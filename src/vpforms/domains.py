@@ -1,0 +1,364 @@
+"""Toroidal domains that follow the plasma (issue #38, item 1): a closed (R, Z) boundary per φ.
+
+A :class:`ToroidalDomain` is the region inside a closed curve in each poloidal half-plane φ = const,
+the curve depending on φ with the period T = 2π/nfp. It is represented by polygons on P planes
+φ_0 < … < φ_{P−1} of one period, each with the same number n of vertices, vertex i of one plane
+joined to vertex i of the next: between two planes the boundary is the linear interpolation of the
+vertices,
+
+    V_i(φ) = (1 − w) V_i(φ_j) + w V_i(φ_{j+1}),   w = (φ − φ_j)/(φ_{j+1} − φ_j),
+
+(cyclic: from φ_{P−1} to φ_0 + T), a closed piecewise-bilinear surface. Inside/outside at a point
+(R, φ, Z) is the even-odd test of V(φ) (the arithmetic of :class:`vpforms.fieldlines.Wall`), the
+signed distance the in-plane distance to V(φ) (negative inside). Between planes the boundary moves
+at most ``vertex_speed`` (max |∂V_i/∂φ|, m per radian), so the signed distance is Lipschitz:
+|d(p₁, φ₁) − d(p₀, φ₀)| ≤ |p₁ − p₀| + vertex_speed·|φ₁ − φ₀|; the native wall kernel uses that bound
+to test a line fully only near the boundary.
+
+Constructors: :meth:`ToroidalDomain.from_fourier` (VMEC's boundary R = Σ rmnc cos(mθ − nφ),
+Z = Σ zmns sin(mθ − nφ)), :meth:`ToroidalDomain.tube` (a circle of given radius about an axis curve
+R₀(φ), Z₀(φ) in each plane), :meth:`ToroidalDomain.from_polygons` (wall polygons on planes) and
+:meth:`ToroidalDomain.axisymmetric` (one :class:`~vpforms.fieldlines.Wall`, the same at every φ).
+Every boundary is checked: closed, simple (no self-intersection) on its planes and half-way between
+them, R > 0; :meth:`~ToroidalDomain.check_within` says whether it fits a grid box.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from . import _config  # noqa: F401  (float64 on)
+from ._polygon import Wall, _fmt, _inside_kernel, _signed_distance_kernel
+
+__all__ = ["ToroidalDomain", "as_domain", "boundary_inside", "boundary_signed_distance"]
+
+
+# --------------------------------------------------------------------------------------------
+# Kernels on the geometry (phis (P,), period, Rv (P, n), Zv (P, n)); JAX, broadcasting
+# --------------------------------------------------------------------------------------------
+def _vertices_at(geom, phi):
+    """The boundary's vertices V(φ) (…, n) by linear interpolation between the planes (one plane:
+    that plane's vertices exactly)."""
+    phis, period, Rv, Zv = geom
+    if Rv.shape[0] == 1:
+        shape = jnp.shape(phi) + Rv.shape[1:]
+        return jnp.broadcast_to(Rv[0], shape), jnp.broadcast_to(Zv[0], shape)
+    s = phis[0] + jnp.mod(jnp.asarray(phi, jnp.float64) - phis[0], period)  # in [φ_0, φ_0 + T)
+    ext = jnp.append(phis, phis[0] + period)
+    j = jnp.clip(jnp.searchsorted(ext, s, side="right") - 1, 0, phis.shape[0] - 1)
+    w = ((s - ext[j]) / (ext[j + 1] - ext[j]))[..., None]
+    j2 = jnp.where(j + 1 == phis.shape[0], 0, j + 1)
+    return (1.0 - w) * Rv[j] + w * Rv[j2], (1.0 - w) * Zv[j] + w * Zv[j2]
+
+
+def _per_point(kernel, geom, R, phi, Z):
+    R, phi, Z = jnp.broadcast_arrays(*(jnp.asarray(a, jnp.float64) for a in (R, phi, Z)))
+    Rv, Zv = _vertices_at(geom, phi)
+    return jax.vmap(kernel)(Rv.reshape(-1, Rv.shape[-1]), Zv.reshape(-1, Zv.shape[-1]),
+                            R.reshape(-1), Z.reshape(-1)).reshape(R.shape)
+
+
+def boundary_inside(geom, R, phi, Z):
+    """Whether (R, φ, Z) is inside the boundary ``geom`` (even-odd rule of V(φ)); a NaN point is
+    outside. JAX, broadcasting."""
+    if geom[2].shape[0] == 1:
+        return _inside_kernel(geom[2][0], geom[3][0], R, Z)
+    return _per_point(_inside_kernel, geom, R, phi, Z)
+
+
+def boundary_signed_distance(geom, R, phi, Z):
+    """The in-plane distance from (R, Z) to V(φ), negative inside. JAX, broadcasting."""
+    if geom[2].shape[0] == 1:
+        return _signed_distance_kernel(geom[2][0], geom[3][0], R, Z)
+    return _per_point(_signed_distance_kernel, geom, R, phi, Z)
+
+
+_inside_jit = jax.jit(boundary_inside)
+_distance_jit = jax.jit(boundary_signed_distance)
+
+
+# --------------------------------------------------------------------------------------------
+# Polygons: orientation, resampling to n vertices from a common start
+# --------------------------------------------------------------------------------------------
+def _resample(R: np.ndarray, Z: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """n points equally spaced in arclength along the closed polygon (R, Z) (open vertices),
+    counter-clockwise, starting where the polygon crosses the horizontal line through its centroid
+    on the outboard side (largest R): corresponding vertices of two planes then face each other."""
+    area2 = np.sum(R * np.roll(Z, -1) - np.roll(R, -1) * Z)
+    if area2 < 0:
+        R, Z = R[::-1], Z[::-1]
+    Zc = float(np.mean(Z))
+    R2, Z2 = np.roll(R, -1), np.roll(Z, -1)
+    cross = (Z - Zc) * (Z2 - Zc) <= 0
+    cross &= Z2 != Z
+    if not cross.any():  # pragma: no cover - a closed polygon crosses its mean height
+        k, t = int(np.argmax(R)), 0.0
+    else:
+        t_all = np.where(cross, (Zc - Z) / np.where(Z2 != Z, Z2 - Z, 1.0), 0.0)
+        Rx = np.where(cross, R + t_all * (R2 - R), -np.inf)
+        k = int(np.argmax(Rx))
+        t = float(t_all[k])
+    # the polygon from the start point: (start, vertices k+1 … k (cyclic), start)
+    order = (np.arange(1, R.size + 1) + k) % R.size
+    pR = np.concatenate([[R[k] + t * (R2[k] - R[k])], R[order], [R[k] + t * (R2[k] - R[k])]])
+    pZ = np.concatenate([[Z[k] + t * (Z2[k] - Z[k])], Z[order], [Z[k] + t * (Z2[k] - Z[k])]])
+    s = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(pR), np.diff(pZ)))])
+    q = s[-1] * np.arange(n) / n
+    return np.interp(q, s, pR), np.interp(q, s, pZ)
+
+
+def _phi_label(phi: float) -> str:
+    return f"φ = {phi:.6g} rad ({math.degrees(phi):.4g}°)"
+
+
+# --------------------------------------------------------------------------------------------
+# The domain
+# --------------------------------------------------------------------------------------------
+class ToroidalDomain:
+    """The region inside a closed (R, Z) boundary that depends on the toroidal angle φ (module
+    docstring): polygons of n vertices on P planes of one field period, linear in φ between them.
+
+    Build it with a constructor (:meth:`from_fourier`, :meth:`tube`, :meth:`from_polygons`,
+    :meth:`axisymmetric`), or directly from ``phis`` (P,) in [0, 2π/nfp) increasing and vertex
+    arrays ``R``, ``Z`` of shape (P, n) (open polygons, vertex i of each plane corresponding).
+
+    Every boundary is validated (a :class:`ValueError` naming the plane and the vertices): each
+    polygon simple (no crossing or touching edges), of positive area, in R > 0, on the planes and
+    half-way between consecutive planes (where the interpolation could fold).
+
+    :meth:`inside`, :meth:`signed_distance` are JAX (broadcasting (R, φ, Z)), :meth:`contains` the
+    NumPy test of points (M, 3) in (R, φ, Z); :meth:`wall_at` the polygon of one plane as a
+    :class:`~vpforms.fieldlines.Wall`; :meth:`sample` seeded points inside (uniform in volume);
+    :attr:`bounds` the (R, Z) extent over all φ; :attr:`vertex_speed` the Lipschitz constant in φ.
+    """
+
+    def __init__(self, phis: Any, R: Any, Z: Any, *, nfp: int = 1, name: str = "domain"):
+        if isinstance(nfp, bool) or not isinstance(nfp, (int, np.integer)) or nfp < 1:
+            raise ValueError(f"nfp must be a positive integer; got {nfp!r}")
+        period = 2 * np.pi / int(nfp)
+        try:
+            phis = np.atleast_1d(np.asarray(phis, dtype=np.float64))
+            R = np.atleast_2d(np.asarray(R, dtype=np.float64))
+            Z = np.atleast_2d(np.asarray(Z, dtype=np.float64))
+        except (TypeError, ValueError) as e:
+            raise ValueError(f"ToroidalDomain needs numbers: phis (P,), R and Z (P, n): {e}") from None
+        if phis.ndim != 1 or R.shape != Z.shape or R.shape[0] != phis.size:
+            raise ValueError(f"ToroidalDomain needs phis (P,) and vertices R, Z of shape (P, n); got "
+                             f"{phis.shape}, {R.shape}, {Z.shape}")
+        if R.shape[1] < 3:
+            raise ValueError(f"each boundary polygon needs at least 3 vertices; got {R.shape[1]}")
+        if not (np.all(np.isfinite(phis)) and np.all(np.isfinite(R)) and np.all(np.isfinite(Z))):
+            raise ValueError("the domain's planes and vertices must be finite")
+        if phis[0] < 0 or phis[-1] >= period or np.any(np.diff(phis) <= 0):
+            raise ValueError(f"the planes φ must increase within one field period [0, {period:.10g}) "
+                             f"(nfp = {nfp}); got {phis.tolist()}")
+        self.phis, self.R, self.Z = phis, R, Z
+        self.nfp, self.period, self.name = int(nfp), float(period), str(name)
+        for a in (phis, R, Z):
+            a.setflags(write=False)
+        self._validate()
+        if phis.size == 1:
+            self.vertex_speed = 0.0
+        else:
+            dphi = np.diff(np.append(phis, phis[0] + period))
+            dV = np.hypot(np.roll(R, -1, axis=0) - R, np.roll(Z, -1, axis=0) - Z)
+            self.vertex_speed = float(np.max(dV / dphi[:, None]))
+        self._geom = (jnp.asarray(phis), jnp.asarray(period), jnp.asarray(R), jnp.asarray(Z))
+        self._scale = float(max(np.abs(R).max(), np.abs(Z).max()))
+
+    # ---------------------------------------------------------------------------- validation
+    def _validate(self) -> None:
+        P = self.phis.size
+        planes = [(self.phis[j], self.R[j], self.Z[j]) for j in range(P)]
+        if P > 1:  # half-way between consecutive planes (the interpolation could fold there)
+            ext = np.append(self.phis, self.phis[0] + self.period)
+            for j in range(P):
+                j2 = (j + 1) % P
+                planes.append((0.5 * (ext[j] + ext[j + 1]), 0.5 * (self.R[j] + self.R[j2]),
+                               0.5 * (self.Z[j] + self.Z[j2])))
+        for phi, R, Z in planes:
+            try:
+                Wall(np.append(R, R[0]), np.append(Z, Z[0]))
+            except ValueError as e:
+                msg = str(e).replace("Wall polygon", "the boundary").replace("Wall ", "the boundary ")
+                raise ValueError(f"domain {self.name!r} at {_phi_label(phi)}: {msg}") from None
+            if np.any(R <= 0):
+                i = int(np.argmin(R))
+                raise ValueError(f"domain {self.name!r} at {_phi_label(phi)}: vertex {i} has R = {R[i]:.6g} ≤ 0; "
+                                 "the boundary must lie in R > 0")
+
+    # ---------------------------------------------------------------------------- constructors
+    @classmethod
+    def from_polygons(cls, phis: Sequence[float], polygons: Sequence[Any], *, nfp: int = 1,
+                      n: int | None = None, name: str = "polygons") -> ToroidalDomain:
+        """Wall polygons on the planes ``phis`` of one field period: each a :class:`Wall` or a
+        closed (R, Z) vertex pair ((R, Z) arrays, the last vertex equal to the first). Each is
+        resampled to ``n`` vertices (default: the most vertices of any polygon, at least 64) equally
+        spaced in arclength, counter-clockwise from its outboard crossing of its mean height, so
+        that corresponding vertices face each other."""
+        if len(phis) != len(polygons) or not len(phis):
+            raise ValueError(f"from_polygons needs one polygon per plane; got {len(phis)} planes and "
+                             f"{len(polygons)} polygons")
+        walls = []
+        for j, p in enumerate(polygons):
+            try:
+                walls.append(p if isinstance(p, Wall) else Wall(*p))
+            except (TypeError, ValueError) as e:
+                raise ValueError(f"domain polygon {j} (at φ = {float(phis[j]):.6g}): {e}") from None
+        order = np.argsort(np.asarray(phis, dtype=float))
+        n = int(n or max(64, *(w.n_vertices for w in walls)))
+        Rs, Zs = zip(*(_resample(walls[j]._Rv, walls[j]._Zv, n) for j in order))
+        return cls(np.asarray(phis, dtype=float)[order], np.array(Rs), np.array(Zs), nfp=nfp, name=name)
+
+    @classmethod
+    def axisymmetric(cls, wall: Wall, name: str = "wall") -> ToroidalDomain:
+        """One :class:`Wall`, the same at every φ (its vertices exactly, not resampled)."""
+        if not isinstance(wall, Wall):
+            raise TypeError(f"axisymmetric needs a Wall; got {type(wall).__name__}")
+        return cls([0.0], wall._Rv[None, :], wall._Zv[None, :], nfp=1, name=name)
+
+    @classmethod
+    def from_fourier(cls, rmnc: Any, zmns: Any, xm: Any, xn: Any, *, nfp: int, n_theta: int = 128,
+                     n_phi: int = 32, name: str = "Fourier boundary") -> ToroidalDomain:
+        """VMEC's boundary R(θ, φ) = Σ_k rmnc_k cos(m_k θ − n_k φ), Z(θ, φ) = Σ_k zmns_k sin(m_k θ − n_k φ)
+        (``xm``, ``xn`` VMEC's mode numbers, xn including the factor nfp), sampled on ``n_phi``
+        planes of one period and ``n_theta`` equally spaced θ (vertex i at θ_i = 2πi/n_theta on
+        every plane). Between the planes the polygons are interpolated linearly (module docstring):
+        the distance to the exact surface is O(Δθ², Δφ²)·curvature (:meth:`fourier_error` reports it)."""
+        rmnc, zmns, xm, xn = (np.atleast_1d(np.asarray(a, dtype=float)) for a in (rmnc, zmns, xm, xn))
+        if not (rmnc.shape == zmns.shape == xm.shape == xn.shape) or rmnc.ndim != 1:
+            raise ValueError(f"rmnc, zmns, xm, xn must be 1-D of one length; got {rmnc.shape}, {zmns.shape}, "
+                             f"{xm.shape}, {xn.shape}")
+        th = 2 * np.pi * np.arange(int(n_theta)) / int(n_theta)
+        phis = (2 * np.pi / nfp) * np.arange(int(n_phi)) / int(n_phi)
+        ang = xm[None, None, :] * th[None, :, None] - xn[None, None, :] * phis[:, None, None]
+        R = np.sum(rmnc * np.cos(ang), axis=-1)
+        Z = np.sum(zmns * np.sin(ang), axis=-1)
+        dom = cls(phis, R, Z, nfp=nfp, name=name)
+        dom._fourier = (rmnc, zmns, xm, xn)
+        return dom
+
+    @classmethod
+    def tube(cls, axis: Callable[[np.ndarray], tuple[Any, Any]], radius: float, *, nfp: int = 1,
+             n_theta: int = 64, n_phi: int = 32, name: str = "tube") -> ToroidalDomain:
+        """In each plane φ, the disc of ``radius`` (m) about the axis point (R₀(φ), Z₀(φ)) =
+        ``axis(φ)`` (NumPy: φ (P,) → two (P,) arrays; e.g. a magnetic axis), as a regular polygon
+        of ``n_theta`` vertices (inscribed: inside the circle by ≤ radius·(1 − cos(π/n_theta)))
+        on ``n_phi`` planes of one field period."""
+        radius = float(radius)
+        if not (math.isfinite(radius) and radius > 0):
+            raise ValueError(f"the tube's radius must be finite and > 0; got {radius}")
+        phis = (2 * np.pi / nfp) * np.arange(int(n_phi)) / int(n_phi)
+        R0, Z0 = (np.asarray(a, dtype=float) for a in axis(phis))
+        if R0.shape != phis.shape or Z0.shape != phis.shape:
+            raise ValueError(f"axis(φ) must return two arrays of the shape of φ {phis.shape}; got "
+                             f"{R0.shape}, {Z0.shape}")
+        a = 2 * np.pi * np.arange(int(n_theta)) / int(n_theta)
+        return cls(phis, R0[:, None] + radius * np.cos(a), Z0[:, None] + radius * np.sin(a), nfp=nfp, name=name)
+
+    # ---------------------------------------------------------------------------- geometry
+    @property
+    def n_planes(self) -> int:
+        return int(self.phis.size)
+
+    @property
+    def n_vertices(self) -> int:
+        return int(self.R.shape[1])
+
+    @property
+    def bounds(self) -> tuple[float, float, float, float]:
+        """(R_min, R_max, Z_min, Z_max) over all φ (the planes' vertices: the interpolation stays
+        within their hull)."""
+        return (float(self.R.min()), float(self.R.max()), float(self.Z.min()), float(self.Z.max()))
+
+    @property
+    def geometry(self) -> tuple[jax.Array, jax.Array, jax.Array, jax.Array]:
+        """(phis, period, R, Z) as JAX arrays: what :func:`boundary_inside` and
+        :func:`boundary_signed_distance` take (and the native wall kernel, as NumPy)."""
+        return self._geom
+
+    def __repr__(self) -> str:
+        r0, r1, z0, z1 = self.bounds
+        return (f"ToroidalDomain({self.name!r}, {self.n_planes} planes × {self.n_vertices} vertices, nfp={self.nfp}, "
+                f"R ∈ [{r0:.6g}, {r1:.6g}], Z ∈ [{z0:.6g}, {z1:.6g}])")
+
+    def inside(self, R: Any, phi: Any, Z: Any) -> jax.Array:
+        """Whether (R, φ, Z) is inside (even-odd rule of the boundary at φ); JAX, broadcasting."""
+        return _inside_jit(self._geom, R, phi, Z)
+
+    def signed_distance(self, R: Any, phi: Any, Z: Any) -> jax.Array:
+        """The in-plane distance from (R, Z) to the boundary at φ, negative inside; JAX."""
+        return _distance_jit(self._geom, R, phi, Z)
+
+    def contains(self, points_RphiZ: Any) -> np.ndarray:
+        """:meth:`inside` of points (M, 3) (or (3,)) in (R, φ, Z) as a NumPy bool array (M,),
+        evaluated in blocks (memory O(block · n))."""
+        p = np.asarray(points_RphiZ, dtype=np.float64)
+        if p.shape[-1:] != (3,):
+            raise ValueError(f"contains needs points of shape (M, 3) in (R, φ, Z); got {p.shape}")
+        flat = p.reshape(-1, 3)
+        out = np.zeros(flat.shape[0], bool)
+        for lo in range(0, flat.shape[0], 8192):
+            q = flat[lo:lo + 8192]
+            out[lo:lo + 8192] = np.asarray(self.inside(q[:, 0], q[:, 1], q[:, 2]))
+        return out.reshape(p.shape[:-1])
+
+    def wall_at(self, phi: float) -> Wall:
+        """The boundary in the plane φ as a :class:`Wall` (for plots and the axisymmetric tools)."""
+        Rv, Zv = (np.asarray(a) for a in _vertices_at(self._geom, jnp.asarray(float(phi))))
+        return Wall(np.append(Rv, Rv[0]), np.append(Zv, Zv[0]))
+
+    def sample(self, n: int, seed: int = 0) -> np.ndarray:
+        """``n`` seeded random points (R, φ, Z) inside, uniform in volume (R dR dφ dZ) over one
+        field period: rejection from the (R, Z) bounds with acceptance R/R_max."""
+        rng = np.random.default_rng(seed)
+        r0, r1, z0, z1 = self.bounds
+        out: list[np.ndarray] = []
+        got = 0
+        while got < n:
+            m = max(64, 2 * (n - got))
+            q = np.c_[rng.uniform(r0, r1, m), rng.uniform(0, self.period, m), rng.uniform(z0, z1, m)]
+            keep = self.contains(q) & (rng.uniform(0, 1, m) * r1 < q[:, 0])
+            out.append(q[keep])
+            got += int(keep.sum())
+        return np.concatenate(out)[:n]
+
+    def check_within(self, R_range: Sequence[float], Z_range: Sequence[float], what: str = "the grid") -> None:
+        """ValueError if the boundary leaves the rectangle R_range × Z_range (e.g. a grid's box),
+        naming the plane and the vertex."""
+        (r0, r1), (z0, z1) = (tuple(map(float, R_range)), tuple(map(float, Z_range)))
+        out = (self.R < r0) | (self.R > r1) | (self.Z < z0) | (self.Z > z1)
+        if out.any():
+            j, i = (int(v) for v in np.argwhere(out)[0])
+            raise ValueError(
+                f"domain {self.name!r} leaves {what} R ∈ [{r0:.6g}, {r1:.6g}], Z ∈ [{z0:.6g}, {z1:.6g}]: at "
+                f"{_phi_label(self.phis[j])} its vertex {i} is (R, Z) = {_fmt(self.R[j, i], self.Z[j, i])}")
+
+    def fourier_error(self, n_check: int = 2000, seed: int = 0) -> float:
+        """For :meth:`from_fourier` domains: max over random (θ, φ) of the distance from the exact
+        Fourier surface's point to the polygon boundary at that φ (m); NaN for other domains."""
+        coeffs = getattr(self, "_fourier", None)
+        if coeffs is None:
+            return float("nan")
+        rmnc, zmns, xm, xn = coeffs
+        rng = np.random.default_rng(seed)
+        th, ph = rng.uniform(0, 2 * np.pi, n_check), rng.uniform(0, self.period, n_check)
+        ang = xm[None, :] * th[:, None] - xn[None, :] * ph[:, None]
+        R, Z = np.sum(rmnc * np.cos(ang), axis=1), np.sum(zmns * np.sin(ang), axis=1)
+        return float(np.max(np.abs(np.asarray(self.signed_distance(R, ph, Z)))))
+
+
+def as_domain(wall: Wall | ToroidalDomain) -> ToroidalDomain:
+    """A :class:`ToroidalDomain` for a Wall (axisymmetric) or a domain (itself)."""
+    if isinstance(wall, ToroidalDomain):
+        return wall
+    if isinstance(wall, Wall):
+        return ToroidalDomain.axisymmetric(wall)
+    raise TypeError(f"expected a vpforms Wall or ToroidalDomain; got {type(wall).__name__}")
+

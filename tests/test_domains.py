@@ -1,0 +1,209 @@
+"""Domains that follow the plasma (issue #38, item 1): ToroidalDomain and tracing to it.
+
+Expected values are computed here independently of vpforms.domains: vertices at φ by NumPy's
+periodic np.interp of each vertex coordinate, inside/outside by matplotlib's point-in-path test,
+exits of the exact helix flow by a root of its closed-form height against the interpolated top.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from matplotlib.path import Path
+
+import vpforms
+from vpforms import RESULTS, problems
+from vpforms.domains import ToroidalDomain
+from vpforms.fieldlines import Wall, trace_to_wall
+from .test_walls import HELIX, V, np_distance
+
+NFP = 5
+T = 2 * np.pi / NFP
+
+
+def ellipse_domain(n_phi=32, n_theta=128):
+    """A rotating ellipse, VMEC's form: R = 1 + 0.2 cos θ + 0.05 cos(θ − 5φ), Z = 0.2 sin θ − 0.05 sin(θ − 5φ)."""
+    return ToroidalDomain.from_fourier([1.0, 0.2, 0.05], [0.0, 0.2, -0.05], [0, 1, 1], [0, 0, NFP], nfp=NFP,
+                                       n_theta=n_theta, n_phi=n_phi)
+
+
+def np_vertices(dom, phi):
+    """Each vertex coordinate interpolated linearly and periodically in φ (np.interp, period T)."""
+    ph = np.append(dom.phis, dom.phis[0] + dom.period)
+    R = np.array([np.interp(phi % dom.period, ph, np.append(dom.R[:, i], dom.R[0, i]), period=dom.period)
+                  for i in range(dom.n_vertices)])
+    Z = np.array([np.interp(phi % dom.period, ph, np.append(dom.Z[:, i], dom.Z[0, i]), period=dom.period)
+                  for i in range(dom.n_vertices)])
+    return R, Z
+
+
+# ------------------------------------------------------------------------------ geometry
+def test_inside_and_distance_match_an_independent_interpolation():
+    dom = ellipse_domain(n_phi=8, n_theta=48)
+    rng = np.random.default_rng(0)
+    for phi in [0.0, 0.3 * T, T / 8 * 3.5, -0.7, 7.1]:  # planes, between planes, negative, several periods
+        R, Z = np_vertices(dom, phi)
+        pts = np.c_[rng.uniform(0.7, 1.3, 400), rng.uniform(-0.3, 0.3, 400)]
+        expect = Path(np.c_[R, Z]).contains_points(pts)
+        got = np.asarray(dom.inside(pts[:, 0], phi, pts[:, 1]))
+        np.testing.assert_array_equal(got, expect)
+        wall = Wall(np.append(R, R[0]), np.append(Z, Z[0]))
+        d = np.asarray(dom.signed_distance(pts[:, 0], phi, pts[:, 1]))
+        np.testing.assert_allclose(np.abs(d), np_distance(pts[:, 0], pts[:, 1], wall), atol=1e-14)
+        assert np.all((d < 0) == expect)
+        np.testing.assert_array_equal(dom.contains(np.c_[pts[:, 0], np.full(400, phi), pts[:, 1]]), expect)
+    # periodic: φ and φ + T are the same plane
+    q = rng.uniform([0.7, 0, -0.3], [1.3, T, 0.3], (300, 3))
+    np.testing.assert_array_equal(dom.contains(q), dom.contains(q + [0, 3 * T, 0]))
+
+
+@settings(max_examples=40, deadline=None)
+@given(phi0=st.floats(-10, 10), dphi=st.floats(-0.3, 0.3), R=st.floats(0.7, 1.3), Z=st.floats(-0.3, 0.3))
+def test_signed_distance_is_lipschitz_in_phi_with_the_vertex_speed(phi0, dphi, R, Z):
+    """|d(p, φ₁) − d(p, φ₀)| ≤ vertex_speed·|φ₁ − φ₀|: the bound the native kernel's margin relies on."""
+    dom = ELLIPSE
+    d0, d1 = (float(dom.signed_distance(R, p, Z)) for p in (phi0, phi0 + dphi))
+    assert abs(d1 - d0) <= dom.vertex_speed * abs(dphi) + 1e-14
+
+
+ELLIPSE = ellipse_domain()
+
+
+def test_fourier_boundary_converges_at_second_order():
+    """The polygons' distance to the exact Fourier surface falls as (Δθ, Δφ)²: slope ≈ −2."""
+    ns = np.array([16, 32, 64])
+    err = np.array([ellipse_domain(n_phi=n, n_theta=4 * n).fourier_error() for n in ns])
+    slope = np.polyfit(np.log(ns), np.log(err), 1)[0]
+    assert -2.3 < slope < -1.7, (err, slope)
+
+
+def test_constructors_agree_on_their_planes_and_sample_inside():
+    axis = (lambda p: (1.0 + 0.05 * np.cos(NFP * p), 0.05 * np.sin(NFP * p)))
+    tube = ToroidalDomain.tube(axis, 0.1, nfp=NFP, n_phi=16, n_theta=64)
+    for j, phi in enumerate(tube.phis):
+        R0, Z0 = axis(np.array([phi]))
+        np.testing.assert_allclose(np.hypot(tube.R[j] - R0, tube.Z[j] - Z0), 0.1, rtol=1e-14)
+        w = tube.wall_at(phi)
+        np.testing.assert_array_equal(w.vertices, np.c_[tube.R[j], tube.Z[j]])
+    # from_polygons: the tube's own planes back, as closed polygons given in any rotation/orientation
+    polys = [(np.append(R[::-1], R[-1]), np.append(Z[::-1], Z[-1])) for R, Z in zip(tube.R, tube.Z)]
+    again = ToroidalDomain.from_polygons(tube.phis, polys, nfp=NFP, n=64)
+    q = tube.sample(2000, seed=3)
+    assert np.all(tube.contains(q))
+    np.testing.assert_allclose(again.R, tube.R, atol=1e-14)  # a regular polygon resamples to itself
+    np.testing.assert_allclose(again.Z, tube.Z, atol=1e-14)
+    # uniform in volume R dR dφ dZ: the mean R of the disc's points is R0 + a²/(4 R0) (Pappus), ±3σ
+    R0 = 1.0 + 0.05 * np.cos(NFP * q[:, 1])
+    assert abs(np.mean(q[:, 0] - R0) - np.mean(0.01 / (4 * R0))) < 3 * 0.05 / np.sqrt(2000)
+    # axisymmetric: exactly the wall
+    wall = Wall.circle(1.0, 0.0, 0.3, n=32)
+    ax = ToroidalDomain.axisymmetric(wall)
+    pts = np.random.default_rng(1).uniform([0.6, -4, -0.4], [1.4, 4, 0.4], (500, 3))
+    np.testing.assert_array_equal(ax.contains(pts), wall.contains(pts[:, [0, 2]]))
+    assert ax.vertex_speed == 0.0
+
+
+def test_bad_boundaries_are_one_clear_error_each():
+    th = 2 * np.pi * np.arange(32) / 32
+    c, s = np.cos(th), np.sin(th)
+    with pytest.raises(ValueError, match=r"domain polygon 0 \(at φ = 0\): Wall polygon is not closed"):
+        ToroidalDomain.from_polygons([0.0], [(1 + 0.1 * c, 0.1 * s)])
+    fig8 = (np.append(1 + 0.2 * np.sin(th), 1.0), np.append(0.2 * np.sin(2 * th), 0.0))
+    with pytest.raises(ValueError, match=r"intersects itself"):
+        ToroidalDomain.from_polygons([0.0], [fig8])
+    # two planes whose vertices run opposite ways: half-way the polygon collapses onto a line
+    with pytest.raises(ValueError, match=r"at φ = 0\.314159 rad \(18°\): the boundary has zero area|"
+                                         r"at φ = 0\.314159 rad \(18°\).*intersects itself"):
+        ToroidalDomain([0.0, T / 2], [1 + 0.1 * c, 1 + 0.1 * c], [0.1 * s, -0.1 * s], nfp=NFP)
+    with pytest.raises(ValueError, match=r"at φ = 0 rad \(0°\): the boundary vertices must lie in the half-plane R ≥ 0: vertex 12 is"):
+        ToroidalDomain([0.0], [0.1 + 0.15 * c], [0.15 * s])
+    with pytest.raises(ValueError, match=r"planes φ must increase within one field period"):
+        ToroidalDomain([0.0, 2.0], [1 + 0.1 * c] * 2, [0.1 * s] * 2, nfp=NFP)
+    j, i = np.argwhere(ELLIPSE.R < 0.9)[0]  # the first vertex out, plane by plane
+    with pytest.raises(ValueError, match=rf"leaves the grid R ∈ \[0\.9, 1\.3\], Z ∈ \[-1, 1\]: at φ = "
+                                         rf"{ELLIPSE.phis[j]:.6g} rad .* its vertex {i} is \(R, Z\) = \({ELLIPSE.R[j, i]:.10g}, "):
+        ELLIPSE.check_within((0.9, 1.3), (-1, 1))
+    ELLIPSE.check_within((0.7, 1.3), (-0.3, 0.3))
+    with pytest.raises(ValueError, match="radius must be finite and > 0"):
+        ToroidalDomain.tube(lambda p: (p * 0 + 1, p * 0), -0.1)
+
+
+# ------------------------------------------------------------------------------ tracing to a domain
+def helix_domain():
+    """Boxes R ∈ [0.5, 1.5], Z ∈ [−0.6, top_j] on 6 planes of one period 2π (nfp = 1), the top linear
+    in φ between them."""
+    phis = np.linspace(0, 2 * np.pi, 6, endpoint=False)
+    top = 0.6 + 0.15 * np.sin(3 * phis + 0.4)
+    R = np.tile([0.5, 1.5, 1.5, 0.5], (6, 1))
+    Z = np.stack([np.full(6, -0.6), np.full(6, -0.6), top, top], 1)
+    return ToroidalDomain(phis, R, Z, nfp=1, name="helix box"), phis, top
+
+
+@pytest.mark.parametrize("toroidal", [False, True], ids=["cartesian", "toroidal"])
+def test_helix_leaves_a_phi_dependent_domain_where_the_closed_form_says(toroidal):
+    """dZ/dt = v, dφ/dt = 1: the exit is the first root of Z0 + v t = top(φ0 + t), top the periodic
+    linear interpolation of the planes' heights (np.interp) — found here by bisection of that closed form."""
+    from scipy.optimize import brentq
+
+    dom, phis, top = helix_domain()
+    m, h = HELIX[toroidal], 0.1
+    R0 = np.array([0.8, 1.0, 1.2, 0.9, 0.7])
+    Z0 = np.array([-0.213, 0.0071, 0.3033, 0.41, 0.55])
+    phi0 = np.array([0.0, 3.0, -3.0, 1.0, 2.0])
+    x0 = (np.stack([R0**2 / 2, phi0, Z0], 1) if toroidal
+          else np.stack([R0 * np.cos(phi0), R0 * np.sin(phi0), Z0], 1))
+
+    def top_at(p):
+        return np.interp(p % (2 * np.pi), np.append(phis, 2 * np.pi), np.append(top, top[0]))
+
+    t_star = []
+    for z, p in zip(Z0, phi0):
+        g = lambda t, z=z, p=p: z + V * t - top_at(p + t)
+        ts = np.arange(0, 40, 1e-3)
+        k = np.flatnonzero(np.array([g(t) for t in ts]) > 0)[0]
+        t_star.append(brentq(g, ts[k - 1], ts[k], xtol=1e-15, rtol=1e-15))
+    t_star = np.array(t_star)
+    res = trace_to_wall(m, x0, h, 400, dom, progress=False)
+    assert res.wall is dom and np.all(res.hit) and np.all(res.status == RESULTS.left_domain)
+    np.testing.assert_array_equal(res.step, np.floor(t_star / h).astype(int))
+    np.testing.assert_allclose(res.t_exit, t_star, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(res.exit_RZ, np.c_[R0, Z0 + V * t_star], atol=1e-12)
+    np.testing.assert_allclose(res.exit_phi, phi0 + t_star, atol=1e-12)
+    # the exit lies on the boundary at its own φ
+    d = np.asarray(dom.signed_distance(res.exit_RZ[:, 0], res.exit_phi, res.exit_RZ[:, 1]))
+    assert np.abs(d).max() <= 1e-12
+    # a start outside the domain at its own φ (inside the same box at another φ) is refused by name
+    bad = x0.copy()
+    p_low = phis[np.argmin(top)]
+    zb = top_at(p_low) + 0.01
+    bad[0] = [1.0, p_low, zb] if toroidal else [np.cos(p_low), np.sin(p_low), zb]
+    with pytest.raises(ValueError, match=r"x0\[0\] starts outside the wall: its \(R, Z\) = .* at φ = "):
+        trace_to_wall(m, bad, h, 10, dom, progress=False)
+
+
+@pytest.mark.slow  # compiles the tokamak's native wall kernel (and the JAX scan)
+def test_native_and_jax_stop_the_same_lines_at_a_rotating_ellipse():
+    """The tokamak's lines in a rotating-ellipse domain (the boundary moves with φ): the native
+    kernel's margin (chord + vertex_speed·|Δφ|) never skips an exit: both backends stop the same lines
+    at the same steps, the exits on the boundary at their own φ."""
+    prob = problems.get("tokamak", eps=0)
+    m = vpforms.compose(vpforms.scheme(prob.field, "SE+SE"), order=2)
+    dom = ToroidalDomain.from_fourier([1.0, 0.22, 0.06], [0.0, 0.18, -0.06], [0, 1, 1], [0, 0, 2], nfp=2,
+                                      n_theta=96, n_phi=24)
+    R0 = np.linspace(1.02, 1.16, 8)
+    x0 = np.stack([R0, 0 * R0, 0 * R0], 1)
+    try:
+        nat = trace_to_wall(m, x0, 0.05, 1500, dom, progress=False, backend="native")
+    except vpforms.NativeUnavailableError as e:
+        pytest.skip(f"native backend unavailable: {e}")
+    jx = trace_to_wall(m, x0, 0.05, 1500, dom, progress=False, backend="jax")
+    assert nat.hit.any() and (~nat.hit).any(), nat.hit
+    np.testing.assert_array_equal(nat.hit, jx.hit)
+    np.testing.assert_array_equal(nat.step, jx.step)
+    np.testing.assert_array_equal(nat.status, jx.status)
+    r = nat.hit
+    np.testing.assert_allclose(nat.exit_point[r], jx.exit_point[r], atol=1e-10)
+    d = np.asarray(dom.signed_distance(nat.exit_RZ[r, 0], nat.exit_phi[r], nat.exit_RZ[r, 1]))
+    assert np.abs(d).max() <= 1e-12
