@@ -38,14 +38,15 @@ def _fmt(v: float) -> str:
     return f"{v:.6g}"
 
 
-def check_radii(R: Any, what: str) -> np.ndarray:
+def check_radii(R: Any, what: str, indexed: bool = True) -> np.ndarray:
     """R as a 1-D float array, every entry a positive finite number (ValueError naming the first
-    that is not: ``what`` says which, e.g. "line" or "the axis guess")."""
+    that is not: ``what`` says which, e.g. "line" or "the axis guess", followed by its index when
+    ``indexed``)."""
     R = np.asarray(R, float).reshape(-1)
     bad = np.flatnonzero(~(np.isfinite(R) & (R > 0)))
     if bad.size:
         i = int(bad[0])
-        who = what if R.size == 1 else f"{what} {i}"
+        who = f"{what} {i}" if indexed else what
         raise StartPointError(f"{who}: R must be a positive number (the distance from the major axis); got "
                          f"R = {_fmt(R[i])}")
     return R
@@ -81,17 +82,17 @@ def _checked_axes(field: Any) -> list[int]:
     return [a for a in range(3) if periods[a] is None and not (is_toroidal(field) and a == 1)]
 
 
-def check_starts(field: Any, pts: np.ndarray, what: str = "line", verb: str = "starts") -> None:
+def check_starts(field: Any, pts: np.ndarray, what: str = "line", verb: str = "starts",
+                 indexed: bool = True) -> None:
     """ValueError unless every point (N, 3) of the field's coordinates has R > 0 and lies in the
-    field's domain and box (module docstring); the message names ``what`` and the point's index."""
+    field's domain and box (module docstring); the message names ``what`` and (``indexed``) the
+    point's index."""
     pts = np.asarray(pts, float).reshape(-1, 3)
     tor = is_toroidal(field)
     R = np.sqrt(np.maximum(2 * pts[:, 0], 0.0)) if tor else np.hypot(pts[:, 0], pts[:, 1])
     Z = pts[:, 2]
-    one = pts.shape[0] == 1
-
     def who(i: int) -> str:
-        return what if one else f"{what} {i}"
+        return f"{what} {i}" if indexed else what
 
     nonpos = np.flatnonzero((pts[:, 0] <= 0) if tor else (R == 0))
     if nonpos.size:

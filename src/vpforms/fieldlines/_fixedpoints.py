@@ -204,7 +204,8 @@ def _check_section_points(method: Any, phi: float, rz: Any, what: str) -> None:
     rz = np.asarray(rz, float).reshape(-1, 2)
     if rz.shape[0] == 0 or not np.all(np.isfinite(rz)):
         return  # find_fixed_point names a non-finite guess
-    check_radii(rz[:, 0], what)
+    indexed = rz.shape[0] > 1
+    check_radii(rz[:, 0], what, indexed)
     field = getattr(method, "field", None)
     if field is None:
         return
@@ -213,7 +214,7 @@ def _check_section_points(method: Any, phi: float, rz: Any, what: str) -> None:
         pts = np.stack([0.5 * R * R, np.full_like(R, phi), Z], axis=1)
     else:
         pts = np.stack([R * math.cos(phi), R * math.sin(phi), Z], axis=1)
-    check_starts(field, pts, what, "is")
+    check_starts(field, pts, what, "is", indexed)
 
 
 def magnetic_axis(method: Any, guess: Any, h: float, phi: float = 0.0, nfp: int = 1, *, tol: float = 1e-12,
