@@ -129,6 +129,8 @@ def test_iota_at_a_radius_that_is_not_positive_is_refused(R):
     m, R0 = _twist()
     with pytest.raises(ValueError, match=r"line 1: R must be a positive"):
         iota_profile(m, [1.1, R], 0.1, 64, (R0, 0.0), progress=False)
+    with pytest.raises(ValueError, match=r"\(R, Z\) pair with R > 0"):
+        iota_profile(m, [1.1], 0.1, 64, (R, 0.0), progress=False)  # an axis at R ≤ 0 neither
     if R == 0.0:  # u = 0 given directly: R = 0
         with pytest.raises(ValueError, match=r"R = 0"):
             rotational_transform(m, [[0.0, 0.0, 0.0]], 0.1, 64, (R0, 0.0), progress=False)

@@ -109,8 +109,8 @@ def _as_axis(axis: Any) -> AxisCurve:
     if hasattr(axis, "R") and hasattr(axis, "Z") and hasattr(axis, "m"):  # a FixedPoint: the axis at φ₀
         return AxisCurve.constant(axis.R, axis.Z)
     a = np.asarray(axis, float).reshape(-1)
-    if a.shape != (2,) or not np.all(np.isfinite(a)):
-        raise ValueError(f"axis must be an AxisCurve, a FixedPoint or an (R, Z) pair; got {axis!r}")
+    if a.shape != (2,) or not np.all(np.isfinite(a)) or not a[0] > 0:
+        raise ValueError(f"axis must be an AxisCurve, a FixedPoint or an (R, Z) pair with R > 0; got {axis!r}")
     return AxisCurve.constant(a[0], a[1])
 
 
