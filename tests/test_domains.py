@@ -207,3 +207,36 @@ def test_native_and_jax_stop_the_same_lines_at_a_rotating_ellipse():
     np.testing.assert_allclose(nat.exit_point[r], jx.exit_point[r], atol=1e-10)
     d = np.asarray(dom.signed_distance(nat.exit_RZ[r, 0], nat.exit_phi[r], nat.exit_RZ[r, 1]))
     assert np.abs(d).max() <= 1e-12
+
+
+# ------------------------------------------------------------------------------ fields on a domain
+@pytest.mark.slow  # ~60 s: the box's and the domain's checks of a 384-segment coil field (second derivatives)
+def test_potentials_are_checked_on_the_domain_not_on_a_box_that_holds_a_coil():
+    """A box that holds a coil wire: the quadrature pair of the coils' A (the gauge integral along φ)
+    cannot reproduce B on the lines of the box that pass next to a small non-axisymmetric coil, so
+    the box is refused; the field's domain (a tube clear of that coil) is what is checked then, and
+    the scheme is built. A start outside the domain near the coil is still refused."""
+    from vpforms.coils import Coil, CoilSet
+    from vpforms.fields import PotentialError
+    from vpforms.toroidal import box_from_cylindrical, toroidal_field
+
+    th = np.linspace(0, 2 * np.pi, 24, endpoint=False)
+    t = np.linspace(0, 2 * np.pi, 360, endpoint=False)  # a 360-gon: its ripple is < 1e-10 beyond 5 cm
+    ring = Coil(np.c_[np.cos(t), np.sin(t), 0 * t], 1e6)
+    small = Coil(np.c_[-(0.86 + 0.03 * np.cos(th)), 0 * th, 0.03 * np.sin(th)], 10.0)  # in the plane φ = π
+    coils = CoilSet([ring, small])
+    box = box_from_cylindrical((0.8, 1.3), (0, 2 * np.pi), (-0.2, 0.2))
+    field = toroidal_field(coils, box, name="ring in the box")
+    with pytest.raises(PotentialError, match="do not reproduce the field"):
+        field.check_potentials("se")
+    tube = ToroidalDomain.tube(lambda p: (1.17 + 0 * p, 0 * p), 0.05, n_phi=1)
+    field.domain = tube
+    field.check_potentials("se")  # the domain: ≥ 0.23 m from the small coil
+    m = vpforms.scheme(field, "SE+SE")
+    x_in = np.array([[1.17**2 / 2, 5.0, 0.02]])
+    vpforms.integrate(m, x_in, 0.01, 2, progress=False)
+    x_wire = np.array([[0.885**2 / 2, 5.0, 0.001]])  # in the box, on a line past the small coil
+    with pytest.raises(PotentialError, match="do not reproduce the field"):
+        vpforms.integrate(m, x_wire, 0.01, 2, progress=False)
+    with pytest.raises(ValueError, match="leaves the box of field 'ring in the box'"):
+        field.domain = ToroidalDomain.tube(lambda p: (1.17 + 0 * p, 0 * p), 0.3, n_phi=1)

@@ -310,6 +310,8 @@ def gauge_callables(A: Sequence[Any], splitting: str, origin: Sequence[float], n
 POTENTIAL_TOL = 1e-8
 #: points of the box a pair is checked on (seeded, uniform), besides the caller's points
 CHECK_POINTS = 512
+#: the block of the check at given points (initial conditions): a second fixed compiled shape
+POINT_BLOCK = 64
 _NAMES = {"se": ("F1", "F3"), "dl": ("G1", "G2")}
 
 
@@ -457,28 +459,40 @@ def singular_point(exprs: Sequence[sp.Expr], symbols: Sequence[sp.Symbol], pts) 
 
 def check_pair(field: Any, splitting: str, points: Any = None, what: str = "") -> None:
     """Refuse (:class:`~vpforms.fields.PotentialError`) the ``splitting`` pair of ``field`` if it
-    does not reproduce the field on the domain: the box (:data:`CHECK_POINTS` seeded points) and
-    ``points`` (e.g. the initial conditions). Checked: symbolic potentials have no singular set
+    does not reproduce the field on the domain: the field's :attr:`~vpforms.Field.domain` where it
+    has one (a region that follows the plasma), else its box (:data:`CHECK_POINTS` seeded points),
+    and ``points`` (e.g. the initial conditions). Checked: symbolic potentials have no singular set
     inside the domain (:func:`singular_point`); numerically built ones (quadrature, gauge by
     quadrature) reconstruct the field to :data:`POTENTIAL_TOL` relative at every point. The
-    message names ``what`` (the case), the potential and a point. The box check is cached."""
+    message names ``what`` (the case), the potential and a point. The domain's check is cached:
+    later calls with ``points`` reconstruct the field at those points only (relative to the larger
+    of the domain's and their max |a|), in blocks of :data:`POINT_BLOCK`."""
     splitting = _check_splitting(splitting)
     cache = field.__dict__.setdefault("_checked_pairs", {})
-    if points is None and splitting in cache:
-        if cache[splitting] is not None:
-            raise PotentialError(f"{what}: {cache[splitting]}" if what else cache[splitting])
-        return
-    box_pts = sample_box(field.box, CHECK_POINTS, field.seed + 7)
-    pts = box_pts if points is None else np.concatenate(
-        [box_pts, np.asarray(points, float).reshape(-1, 3)[:4096]])
-    try:
-        reason = _pair_problem(field, splitting, pts)
-    except PotentialError as err:  # the pair cannot even be built
-        reason = str(err)
-    if points is None:
-        cache[splitting] = reason
+    if splitting not in cache:
+        dom_pts = domain_check_points(field, CHECK_POINTS, field.seed + 7)
+        try:
+            cache[splitting] = _pair_problem(field, splitting, dom_pts, CHECK_POINTS)
+        except PotentialError as err:  # the pair cannot even be built
+            cache[splitting] = (str(err), 0.0)
+    reason, scale = cache[splitting]
+    if reason is None and points is not None:
+        pts = np.asarray(points, float).reshape(-1, 3)[:4096]
+        # the singular-set test sees the domain's points too (a set between them and the points)
+        context = domain_check_points(field, CHECK_POINTS, field.seed + 7)
+        reason, _ = _pair_problem(field, splitting, pts, POINT_BLOCK, scale, context)
     if reason is not None:
         raise PotentialError(f"{what}: {reason}" if what else reason)
+
+
+def domain_check_points(field: Any, n: int, seed: int) -> np.ndarray:
+    """``n`` seeded points where the field is used, in its own coordinates: samples of its
+    :attr:`~vpforms.Field.domain` (toroidal (u = R²/2, φ, Z) or Cartesian) where it has one, else
+    uniform points of its box."""
+    domain = getattr(field, "domain", None)
+    if domain is None:
+        return sample_box(field.box, n, seed)
+    return domain.sample_points(n, seed, toroidal=str(field.coordinates).startswith("toroidal"))
 
 
 def _short(e: Any, n: int = 160) -> str:
@@ -486,27 +500,30 @@ def _short(e: Any, n: int = 160) -> str:
     return s if len(s) <= n else s[: n - 1] + "…"
 
 
-def _pair_problem(field: Any, splitting: str, pts) -> str | None:
+def _pair_problem(field: Any, splitting: str, pts, block: int, scale: float = 0.0,
+                  context: Any = None) -> tuple[str | None, float]:
+    """(why the pair fails at ``pts``, or None; max |a| over ``pts`` and ``scale``); symbolic
+    potentials are tested for singular sets on ``context`` and ``pts`` together."""
     _, exprs, how = field._get(splitting)
     names = _NAMES[splitting]
     label = f"the {splitting.upper()} potentials of field {field.name!r} ({how})"
     if exprs is not None:
-        hit = singular_point(exprs, field.symbols, pts)
+        hit = singular_point(exprs, field.symbols, pts if context is None else np.concatenate([context, pts]))
         if hit is not None:
             i, g, kind, x = hit
             where = f"is not finite/real at x = {_fmt_pt(x)}" if g is None else (
                 f"is singular where its {kind} {g} vanishes, inside the domain (e.g. x = {_fmt_pt(x)})")
-            return f"{label}: {names[i]} = {_short(exprs[i])} {where}"
+            return f"{label}: {names[i]} = {_short(exprs[i])} {where}", scale
         if how in ("closed form", "user-supplied"):
-            return None  # verified symbolically: reproduces the field wherever it is defined
-    # in blocks of CHECK_POINTS: one compiled shape for the box and any number of initial
-    # conditions, so that a run with a new number of particles compiles nothing here
-    a, r = padded_blocks(lambda q: (field(q), field.reconstruct(q, splitting)), pts, CHECK_POINTS)
-    scale = max(float(np.max(np.abs(a[np.isfinite(a)]), initial=0.0)), np.finfo(float).tiny)
+            return None, scale  # verified symbolically: reproduces the field wherever it is defined
+    # in padded blocks of a fixed size: one compiled shape for the domain's points and one for any
+    # number of initial conditions, so that a run with a new number of particles compiles nothing
+    a, r = padded_blocks(lambda q: (field(q), field.reconstruct(q, splitting)), pts, block)
+    scale = max(float(np.max(np.abs(a[np.isfinite(a)]), initial=0.0)), scale, np.finfo(float).tiny)
     err = np.max(np.abs(r - a), axis=1) / scale
     err = np.where(np.isfinite(err), err, np.inf)
     j = int(np.argmax(err))
     if err[j] > POTENTIAL_TOL:
         return (f"{label} do not reproduce the field: |{_split_formula(splitting)} − a| / max|a| = "
-                f"{err[j]:.3g} > {POTENTIAL_TOL:g} at x = {_fmt_pt(pts[j])}")
-    return None
+                f"{err[j]:.3g} > {POTENTIAL_TOL:g} at x = {_fmt_pt(pts[j])}"), scale
+    return None, scale

@@ -329,6 +329,15 @@ class ToroidalDomain:
             got += int(keep.sum())
         return np.concatenate(out)[:n]
 
+    def sample_points(self, n: int, seed: int = 0, toroidal: bool = True) -> np.ndarray:
+        """:meth:`sample` in a field's own coordinates: (u = R²/2, φ, Z) where ``toroidal``, else
+        Cartesian (R cos φ, R sin φ, Z)."""
+        q = self.sample(n, seed)
+        R, phi, Z = q[:, 0], q[:, 1], q[:, 2]
+        if toroidal:
+            return np.stack([R * R / 2, phi, Z], axis=1)
+        return np.stack([R * np.cos(phi), R * np.sin(phi), Z], axis=1)
+
     def check_within(self, R_range: Sequence[float], Z_range: Sequence[float], what: str = "the grid") -> None:
         """ValueError if the boundary leaves the rectangle R_range × Z_range (e.g. a grid's box),
         naming the plane and the vertex."""

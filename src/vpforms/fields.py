@@ -51,6 +51,7 @@ from ._field_input import (
     numeric_jacobian,
 )
 from ._quadrature import DEFAULT_N
+from .domains import ToroidalDomain
 from ._vecpot import CallablePotential, VectorPotential, curl_of
 
 __all__ = [
@@ -233,6 +234,29 @@ class Field:
     @property
     def is_symbolic(self) -> bool:
         return self.exprs is not None
+
+    @property
+    def domain(self) -> ToroidalDomain | None:
+        """The region where the field is used (a :class:`vpforms.domains.ToroidalDomain`: a closed
+        (R, Z) boundary per φ that follows the plasma), or None: the box. Where it is set, the
+        checks of the potentials sample the domain instead of the box (a rectangular box of a real
+        stellarator holds coil filaments, where no line of the plasma goes). Setting it checks that
+        it lies in the box and forgets the checks made on the box."""
+        return self.__dict__.get("_domain")
+
+    @domain.setter
+    def domain(self, domain: ToroidalDomain | None) -> None:
+        if domain is not None:
+            if not isinstance(domain, ToroidalDomain):
+                raise TypeError(f"a field's domain must be a vpforms.domains.ToroidalDomain or None; got "
+                                f"{type(domain).__name__}")
+            (lo1, hi1), _, (lo3, hi3) = self.box
+            toroidal = str(self.coordinates).startswith("toroidal")
+            if toroidal:  # the box is in (u = R²/2, φ, Z)
+                domain.check_within((np.sqrt(2 * max(lo1, 0.0)), np.sqrt(2 * max(hi1, 0.0))), (lo3, hi3),
+                                    f"the box of field {self.name!r}")
+        self.__dict__["_domain"] = domain
+        self.__dict__.pop("_checked_pairs", None)
 
     def sample_points(self, n: int | None = None, seed: int | None = None) -> np.ndarray:
         """Seeded uniform sample points in :attr:`box`."""
