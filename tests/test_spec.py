@@ -102,6 +102,6 @@ def test_bad_specs_are_named_errors(lin):
     with pytest.raises(V.SpecError):
         V.method_from_spec("{not json")
     with pytest.raises(V.SpecError, match="not JSON-able"):
-        V.scheme(lin, "SE+SE", newton=object()).spec() if False else V._spec._jsonable({"newton": object()})
+        V._spec_record._jsonable({"newton": object()})  # the options of a scheme record
     with pytest.raises(V.SpecError, match="no spec"):
         V.SESE(lin).spec()

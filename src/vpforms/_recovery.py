@@ -11,6 +11,13 @@ Why lazy: a recovering step compiles every alternative (≈ 10 generating maps);
 — the common case — a run should cost (and compile) what the bare run does.  A point's result
 depends on that point only, so the output does not depend on chunking or on which other points
 failed.
+
+Layer (issue #40: no import cycle, lazy ones included): this module sits BELOW the methods —
+``Method.step_with_recovery``'s host path (``_methods/_base.py``) calls :func:`recover_points` —
+so it knows the methods only by their traits: a :class:`~vpforms._methods.recover.Recovering`
+recovers itself (its ``_host_recover``: the alternatives in order), a composition stage by stage
+(``stages``), and ``takes_batches`` (``Method``, ``RK4``) says that ``step_with_status`` takes a
+batch (N, 3) rather than one point.
 """
 
 from __future__ import annotations
@@ -22,11 +29,8 @@ import numpy as np
 
 from ._errors import RECOVERY, RESULTS
 from ._fieldops import padded_blocks
-from ._methods._base import Method
-from ._methods.recover import Recovering
-from ._methods.rk4 import RK4
 
-__all__ = ["bare_method", "recover_points", "count_how", "bare_first"]
+__all__ = ["bare_method", "recover_points", "count_how", "bare_first", "padded_steps", "checked_status"]
 
 #: points per call of the recovering step (one compilation per method)
 _BUFFER = 32
@@ -54,12 +58,13 @@ def bare_first(run, method: Any, succeeded):
     return out if succeeded(out) else run(method)
 
 
-def _padded(fn, x: np.ndarray, h: float):
+def padded_steps(fn, x: np.ndarray, h: float):
     """fn(block (B, 3), h) -> arrays (B, …) on x (M, 3) in blocks of B = _BUFFER (one shape)."""
     return padded_blocks(lambda block: fn(block, h), x, _BUFFER)
 
 
-def _checked(X: np.ndarray, st: np.ndarray) -> np.ndarray:
+def checked_status(X: np.ndarray, st: np.ndarray) -> np.ndarray:
+    """The status (M,) of steps X (M, 3): ``nonfinite`` where a step marked successful is not finite."""
     st = np.broadcast_to(np.asarray(st, np.int32), X.shape[:1])
     bad = ~np.all(np.isfinite(X), axis=1)
     return np.where((st == RESULTS.successful) & bad, RESULTS.nonfinite, st).astype(np.int32)
@@ -68,31 +73,15 @@ def _checked(X: np.ndarray, st: np.ndarray) -> np.ndarray:
 def _host_step(method: Any, x: np.ndarray, h: float, bare_failed: bool = False):
     """(X, status, how) of the recovering ``method`` at x (M, 3), alternative by alternative.
 
-    A :class:`Recovering` step runs its bare step, then each alternative on the points still
-    failing, in order, stopping as soon as none fails: an alternative is compiled only when a
-    point needs it.  Compositions recover stage by stage (each stage its own recovery, as in
-    their ``_batched_step``); ``how`` is then the largest code of the stages.  ``bare_failed``:
-    the caller already knows the bare step failed at every point (skip it).
+    A :class:`~vpforms._methods.recover.Recovering` step recovers itself (``_host_recover``: its
+    bare step, then each alternative on the points still failing, in order; an alternative is
+    compiled only when a point needs it).  Compositions recover stage by stage (each stage its own
+    recovery, as in their ``_batched_step``); ``how`` is then the largest code of the stages.
+    ``bare_failed``: the caller already knows the bare step failed at every point (skip it).
     """
-    if isinstance(method, Recovering):
-        if bare_failed:
-            X, st = x.copy(), np.full(x.shape[0], RESULTS.not_converged, np.int32)
-        else:
-            X, st = _padded(method.bare.step_with_status, x, h)
-            st = _checked(X, st)
-        how = np.zeros(x.shape[0], np.int32)
-        for alt, code in method.alternatives:
-            pend = np.flatnonzero(st != RESULTS.successful)
-            if pend.size == 0:
-                break
-            Xa, sa = _padded(alt.step_with_status, x[pend], h)
-            sa = _checked(Xa, sa)
-            if code != RECOVERY.substeps:  # another case or class must agree with RK4 (_guard)
-                sa = np.asarray(method.alternative_ok(x[pend], Xa, sa, h), np.int32)
-            ok = sa == RESULTS.successful
-            X[pend[ok]], how[pend[ok]] = Xa[ok], code
-            st[pend] = sa
-        return X, st, how
+    own = getattr(method, "_host_recover", None)
+    if own is not None:  # a Recovering step: its alternatives in order (_methods/recover.py)
+        return own(x, h, bare_failed)
     stages = getattr(method, "stages", ())
     if len(stages) > 1:  # a composition: stage by stage, each stage its own recovery
         X, st, how = x, np.zeros(x.shape[0], np.int32), np.zeros(x.shape[0], np.int32)
@@ -101,20 +90,20 @@ def _host_step(method: Any, x: np.ndarray, h: float, bare_failed: bool = False):
             st, how = np.where(st != RESULTS.successful, st, s), np.maximum(how, r)
         return X, st, how
     if bare_method(method) is method:  # a bare (part of a) method: no recovery
-        X, st = _padded(_per_batch(method, "step_with_status"), x, h)
-        return X, _checked(X, st), np.zeros(x.shape[0], np.int32)
+        X, st = padded_steps(_per_batch(method, "step_with_status"), x, h)
+        return X, checked_status(X, st), np.zeros(x.shape[0], np.int32)
     if hasattr(method, "_jitted"):  # another vpforms recovering method (e.g. an Adjoint of one)
-        X, st, _, how = _padded(method._jitted(), x, h)  # its whole recovering step in one jit
+        X, st, _, how = padded_steps(method._jitted(), x, h)  # its whole recovering step in one jit
     else:  # a user method with step_with_recovery
-        X, st, how = _padded(_per_batch(method, "step_with_recovery"), x, h)
-    return X, _checked(X, st), np.asarray(how, np.int32)
+        X, st, how = padded_steps(_per_batch(method, "step_with_recovery"), x, h)
+    return X, checked_status(X, st), np.asarray(how, np.int32)
 
 
 def _per_batch(method: Any, name: str):
     """``method.<name>`` on a batch (B, 3): vpforms' own methods take batches; a user method's
     contract (as in :func:`vpforms.integrate`) is one point (3,), so it is vmapped."""
     fn = getattr(method, name)
-    return fn if isinstance(method, (Method, RK4)) else jax.vmap(fn, in_axes=(0, None))
+    return fn if getattr(method, "takes_batches", False) else jax.vmap(fn, in_axes=(0, None))
 
 
 def recover_points(method: Any, x: np.ndarray, h: float):

@@ -3,20 +3,42 @@
 Split from ``_integrate.py`` (issue #19: imports flow one way) so that the backends, which build
 Solutions, sit below :func:`vpforms.integrate`, which dispatches to them; ``vpforms.Solution`` and
 ``vpforms._integrate.Solution`` are this class.
+
+:meth:`Solution.explain` is served from above (issue #40: no import cycle, lazy imports
+included): :func:`vpforms.diagnostics.explain_failures` retakes the failed steps with the
+methods, a layer above the backends that build Solutions, so it registers itself here
+(:func:`explains_failures`) when its module is imported — which ``import vpforms`` always does.
+``to_xarray``/``to_netcdf`` use :mod:`vpforms.io`, which sits below (it needs only
+:func:`~vpforms._steps.saved_steps`).
 """
 
 from __future__ import annotations
 
 import json
 import os
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from ._errors import RESULTS, raise_for_status
+from ._errors import RESULTS, VPFormsError, raise_for_status
+from ._steps import saved_steps
+from .io import solution_to_netcdf, solution_to_xarray
 
-__all__ = ["Solution", "describe", "make_solution", "saved_steps"]
+__all__ = ["Solution", "describe", "explains_failures", "make_solution", "saved_steps"]
+
+#: what :meth:`Solution.explain` calls: :func:`vpforms.diagnostics.explain_failures`, registered by
+#: its module (a layer above this one) through :func:`explains_failures`
+_explain_failures: Callable[..., Any] | None = None
+
+
+def explains_failures(fn: Callable[..., Any]) -> Callable[..., Any]:
+    """Decorator: ``fn`` (``vpforms.diagnostics.explain_failures``) is what :meth:`Solution.explain`
+    calls."""
+    global _explain_failures
+    _explain_failures = fn
+    return fn
 
 
 def describe(method: Any) -> str:
@@ -117,13 +139,13 @@ class Solution:
         the steps are retaken there at smaller h and :func:`vpforms.diagnostics.twist_map` says
         which class's twist condition holds there.
         """
-        from .diagnostics.failures import explain_failures
-
+        if _explain_failures is None:  # only while vpforms itself is being imported
+            raise VPFormsError("Solution.explain needs vpforms.diagnostics: import vpforms first")
         m = self.method_object if method is None else method
         cache = self.__dict__.setdefault("_explained", {})  # summary() then explain(): computed once
         key = (id(m), bool(hint), bool(cli), int(max_shown))
         if key not in cache or cache[key][0] is not m:
-            cache[key] = (m, explain_failures(self.status, self.failed_step, points=self.x_final, method=m,
+            cache[key] = (m, _explain_failures(self.status, self.failed_step, points=self.x_final, method=m,
                                               h=self.h, hint=hint, cli=cli, max_shown=max_shown))
         return cache[key][1]
 
@@ -189,26 +211,11 @@ class Solution:
 
     def to_xarray(self, method: Any = None):
         """This solution as an ``xarray.Dataset`` (:mod:`vpforms.io`; ``method`` adds its spec)."""
-        from .io import solution_to_xarray
-
         return solution_to_xarray(self, method)
 
     def to_netcdf(self, path: str, method: Any = None) -> None:
         """Write :meth:`to_xarray` to a netCDF file (:mod:`vpforms.io`)."""
-        from .io import solution_to_netcdf
-
         solution_to_netcdf(self, path, method)
-
-
-def saved_steps(n_steps: int, save_every: int | None) -> np.ndarray:
-    """The step indices a run keeps: 0, k, 2k, …, n_steps (the last block may be partial), or only
-    0 and n_steps when ``save_every`` is None."""
-    if save_every is None:
-        return np.array([0, n_steps]) if n_steps else np.array([0])
-    k = int(save_every)
-    if k < 1:
-        raise ValueError(f"save_every must be ≥ 1, got {save_every}")
-    return np.minimum(np.arange(-(-n_steps // k) + 1) * k, n_steps)
 
 
 def make_solution(method, single, h, n_steps, save_every, t0, steps, xs, status, failed, recovered,

@@ -24,59 +24,16 @@ from typing import Any
 from . import _methods
 from ._case import Case
 from ._errors import SpecError
-from ._methods._base import Adjoint
 from ._methods.rk4 import RK4
-from ._perm import as_perm
-from ._spec_record import SPEC_VERSION, _case_json, _jsonable, records_spec
-from ._version import __version__
+from ._spec_record import SPEC_VERSION, method_spec, records_spec
 from .fields import field_from_spec, field_spec
 
 __all__ = ["SpecError", "method_from_spec", "field_from_spec", "field_spec", "method_spec",
            "records_spec", "SPEC_VERSION"]
 
-# The layers (issue #19): SpecError is in _errors, the field specs in fields, the construction
-# record (records_spec, _case_json, _jsonable) in _spec_record, below the methods that record it;
-# this module, above the methods, turns a record into JSON and JSON back into a method.
-
-
-# ---------------------------------------------------------------------------------------------
-# methods
-# ---------------------------------------------------------------------------------------------
-def method_spec(method: Any) -> dict:
-    """The JSON-able spec of a method built by scheme/compose/adjoint, or of RK4."""
-    rec = getattr(method, "_spec_record", None)
-    if rec is None:
-        if isinstance(method, RK4):
-            return {"kind": "rk4", "field": field_spec(method.field), "version": __version__}
-        base = method.base if isinstance(method, Adjoint) else getattr(method, "adjoint_of", None)
-        if base is not None:  # an Adjoint, or the adjoint of a recovering method or composition
-            return {"kind": "adjoint", "base": method_spec(base), "version": __version__}
-        relabel_of = getattr(method, "relabel_of", None)
-        if relabel_of is not None:  # Method.relabel(π)
-            base, pi = relabel_of
-            return {"kind": "relabel", "base": method_spec(base), "pi": list(as_perm(pi)),
-                    "version": __version__}
-        raise SpecError(
-            f"{type(method).__name__} was not built by vpforms.scheme/compose/adjoint: it has no spec "
-            "(build it with vpforms.scheme(field, case, **options) to ship it)"
-        )
-    kind, args, kwargs = rec
-    if kind == "scheme":
-        names = ("field", "case")
-        bound = dict(zip(names, args))
-        options = {k: v for k, v in kwargs.items() if k not in names}
-        bound.update({k: kwargs[k] for k in names if k in kwargs})
-        return {"kind": "scheme", "field": field_spec(bound["field"]),
-                "case": _case_json(bound.get("case", "SE+SE")), "options": _jsonable(options),
-                "version": __version__}
-    if kind == "compose":
-        names = ("method", "order", "scheme")
-        bound = dict(zip(names, args))
-        bound.update(kwargs)
-        return {"kind": "compose", "base": method_spec(bound["method"]),
-                "order": int(bound.get("order", 2)), "scheme": bound.get("scheme"),
-                "version": __version__}
-    raise SpecError(f"unknown spec record {kind!r}")  # pragma: no cover
+# The layers (issue #19, #40): SpecError is in _errors, the field specs in fields, the construction
+# record (records_spec) and its JSON (method_spec) in _spec_record, below the methods that record
+# it and whose spec() it is; this module, above the methods, turns JSON back into a method.
 
 
 def method_from_spec(spec: dict | str) -> Any:

@@ -62,7 +62,7 @@ __all__ = [
 ]
 
 from ._errors import RESULTS, VPFormsError
-from ._solution import saved_steps
+from ._steps import saved_steps
 from ._version import __version__
 
 

@@ -43,6 +43,8 @@ from .._errors import RESULTS, VPFormsError, raise_for_status
 from .._guard import KAPPA, guard_status
 from .._map import _as_points, _batched
 from .._perm import Perm, as_perm
+from .._recovery import recover_points
+from .._spec_record import method_spec
 from ._relabel import relabelled_field
 
 __all__ = ["Method", "GeneratingMethod", "Relabelled", "Adjoint", "RecipeError", "Stage",
@@ -103,6 +105,8 @@ class Method(ABC):
     symmetric: bool = False
     field: Any = None
     name: str = "method"
+    #: ``step_with_status`` takes a batch (N, 3) (a user method's contract is one point)
+    takes_batches = True
 
     @property
     def cls(self) -> str:
@@ -246,8 +250,6 @@ class Method(ABC):
         rec = np.zeros(st.shape, np.int32)
         fail = np.flatnonzero(st.reshape(-1) != RESULTS.successful)
         if fail.size:
-            from .._recovery import recover_points
-
             Xr, sr, how = recover_points(self, np.asarray(x).reshape(-1, 3)[fail], float(h))
             ok = sr == RESULTS.successful
             Xf, sf, rf = np.array(X).reshape(-1, 3), st.reshape(-1), rec.reshape(-1)
@@ -374,8 +376,6 @@ class Method(ABC):
 
     def spec(self) -> dict:
         """The JSON-able construction record that rebuilds this method (:func:`vpforms.method_from_spec`)."""
-        from .._spec import method_spec
-
         return method_spec(self)
 
     def __repr__(self) -> str:
@@ -520,6 +520,7 @@ class Adjoint(Method):
 
     def __init__(self, base: Method):
         self.base = base
+        self.adjoint_of = base  # its spec is {"kind": "adjoint", "base": base.spec()}
         self.case = base.case.switched()
         self.order, self.symmetric = base.order, base.symmetric
         self.field = base.field

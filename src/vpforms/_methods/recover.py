@@ -40,11 +40,13 @@ from typing import Any
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jax import lax
 
 from .._case import CLASSES, cases
 from .._errors import RECOVERY, RESULTS, VPFormsError
 from .._guard import alternative_status
+from .._recovery import checked_status, padded_steps
 from ._base import Method, memo_relabel, merge_status
 
 __all__ = ["Recovering", "SubstepLadder"]
@@ -169,6 +171,32 @@ class Recovering(Method):
 
     def generating_map(self, h, x=None):
         return self.bare.generating_map(h, x)
+
+    def _host_recover(self, x: np.ndarray, h: float, bare_failed: bool = False):
+        """(X, status, how) at x (M, 3) on the host (:func:`vpforms._recovery.recover_points`).
+
+        The bare step, then each alternative on the points still failing, in order, stopping as
+        soon as none fails: an alternative is compiled only when a point needs it.  The same
+        choice as :meth:`_batched_step`.  ``bare_failed``: the bare step is known to have failed
+        at every point (skip it)."""
+        if bare_failed:
+            X, st = x.copy(), np.full(x.shape[0], RESULTS.not_converged, np.int32)
+        else:
+            X, st = padded_steps(self.bare.step_with_status, x, h)
+            st = checked_status(X, st)
+        how = np.zeros(x.shape[0], np.int32)
+        for alt, code in self.alternatives:
+            pend = np.flatnonzero(st != RESULTS.successful)
+            if pend.size == 0:
+                break
+            Xa, sa = padded_steps(alt.step_with_status, x[pend], h)
+            sa = checked_status(Xa, sa)
+            if code != RECOVERY.substeps:  # another case or class must agree with RK4 (_guard)
+                sa = np.asarray(self.alternative_ok(x[pend], Xa, sa, h), np.int32)
+            ok = sa == RESULTS.successful
+            X[pend[ok]], how[pend[ok]] = Xa[ok], code
+            st[pend] = sa
+        return X, st, how
 
     def alternative_ok(self, x, X, status, h):
         """:func:`vpforms._guard.alternative_status` at x, X (M, 3) (jitted once per method)."""

@@ -14,6 +14,7 @@ import jax.numpy as jnp
 
 from .._errors import RESULTS
 from .._guard import rk4_step
+from .._spec_record import method_spec
 from ._base import Stage
 
 __all__ = ["RK4"]
@@ -29,10 +30,13 @@ class RK4:
 
     order = 4
     symmetric = False
+    #: ``step_with_status`` takes a batch (N, 3) (vpforms._recovery)
+    takes_batches = True
 
     def __init__(self, field: Callable[[jax.Array], jax.Array]):
         self.field = field
         self.description = f"RK4 (classical, explicit) on {getattr(field, 'name', 'field')}"
+        self._spec_record = ("rk4", (field,), {})  # its construction record (vpforms._spec_record)
 
     @property
     def stages(self) -> tuple:
@@ -53,8 +57,6 @@ class RK4:
 
     def spec(self) -> dict:
         """The JSON-able spec that rebuilds this RK4 (:func:`vpforms.method_from_spec`)."""
-        from .._spec import method_spec
-
         return method_spec(self)
 
     def __repr__(self) -> str:
