@@ -2,7 +2,7 @@
 
 A document asks for a part of a committed results file with a pair of marker lines::
 
-    <!-- quote: benchmarks/results_native.md#table:1 -->
+    <!-- quote: benchmarks/native/results_native.md#table:1 -->
     (generated: the first table of results_native.md)
     <!-- /quote -->
 

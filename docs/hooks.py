@@ -10,7 +10,7 @@ At every build (``mkdocs build``/``serve``) this
   measured live, as ``vpforms errata`` prints it);
 * generates the CLI reference from the argparse parser (``<!-- vpforms:cli-reference -->``: one
   section per subcommand with its ``--help``);
-* quotes benchmark result files verbatim (``<!-- vpforms:include benchmarks/results.md -->``, or a
+* quotes benchmark result files verbatim (``<!-- vpforms:include benchmarks/methods/results.md -->``, or a
   part of one: ``…/results_orders.md#section:pick-per-accuracy-target/table:2``, the selectors of
   ``benchmarks/quote.py``);
 * checks the ``<!-- quote: … -->`` blocks of every page against their results files

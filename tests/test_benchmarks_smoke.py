@@ -1,4 +1,4 @@
-"""Every benchmark script in benchmarks/ runs end to end in smoke mode (tiny sizes) and writes its
+"""Every benchmark script in benchmarks/<topic>/ runs end to end in smoke mode (tiny sizes) and writes its
 results file; no timing is asserted.  Where a script checks that its baseline is the same map as
 vpforms (the ``Check:`` line, computed by the script), that difference must be at round-off."""
 
@@ -16,11 +16,19 @@ BENCHMARKS = pathlib.Path(__file__).resolve().parents[1] / "benchmarks"
 _NATIVE_OK, _NATIVE_WHY = vp.native.available()
 
 
-def _smoke(script: str, tmp_path: pathlib.Path, *extra: str) -> str:
-    """Run ``benchmarks/<script>.py --smoke [extra…]`` in this process; the text of the results file it wrote."""
-    path = BENCHMARKS / f"{script}.py"
-    if not path.exists():
+def _script(name: str) -> pathlib.Path:
+    """``benchmarks/<topic>/<name>.py`` (names are unique across the topic folders), or skip when
+    benchmarks/ is not shipped with this install."""
+    found = sorted(BENCHMARKS.rglob(f"{name}.py")) if BENCHMARKS.exists() else []
+    if not found:
         pytest.skip("benchmarks/ is not shipped with this install")
+    assert len(found) == 1, found
+    return found[0]
+
+
+def _smoke(script: str, tmp_path: pathlib.Path, *extra: str) -> str:
+    """Run ``benchmarks/<topic>/<script>.py --smoke [extra…]`` in this process; the text of the results file it wrote."""
+    path = _script(script)
     spec = importlib.util.spec_from_file_location(script, path)
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
@@ -135,10 +143,7 @@ def test_bench_desc_solovev_smoke(tmp_path, monkeypatch):
 @pytest.mark.slow  # compiles five JAX methods (~15 s)
 def test_bench_gpu_runs_on_any_jax_device(tmp_path):
     """bench_gpu.py has no smoke flag (its sizes are arguments): tiny sizes on whatever device JAX has."""
-    path = BENCHMARKS / "bench_gpu.py"
-    if not path.exists():
-        pytest.skip("benchmarks/ is not shipped with this install")
-    spec = importlib.util.spec_from_file_location("bench_gpu", path)
+    spec = importlib.util.spec_from_file_location("bench_gpu", _script("bench_gpu"))
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     md = tmp_path / "gpu.md"

@@ -44,11 +44,11 @@ def test_no_results_table_copied_by_hand(doc):
 def test_the_benchmark_tables_are_quoted():
     """The blocks that replaced hand-copied tables are there (removing one is not a way to pass)."""
     refs = {(_name(d), b.ref) for d in DOCS for b in quote.blocks(d.read_text(encoding="utf-8"))}
-    for want in [("README.md", "benchmarks/results.md"),
-                 ("README.md", "benchmarks/results_native.md#table:1"),
-                 ("README.md", "benchmarks/results_native.md#table:2"),
-                 ("README.md", "benchmarks/results_native.md#table:3"),
-                 ("docs/which-method.md", "benchmarks/results_orders.md#section:pick-per-accuracy-target/table:2")]:
+    for want in [("README.md", "benchmarks/methods/results.md"),
+                 ("README.md", "benchmarks/native/results_native.md#table:1"),
+                 ("README.md", "benchmarks/native/results_native.md#table:2"),
+                 ("README.md", "benchmarks/native/results_native.md#table:3"),
+                 ("docs/which-method.md", "benchmarks/methods/results_orders.md#section:pick-per-accuracy-target/table:2")]:
         assert want in refs, f"{want[0]} no longer quotes {want[1]}"
 
 

@@ -232,7 +232,7 @@ def test_fourier_80_from_the_command_line(tmp_path):
 
 
 def test_a_range_is_not_a_value():
-    """Found by benchmarks/fuzz_fields.py: atan(1/0) is AccumBounds(-pi/2, pi/2), which no printer
+    """Found by benchmarks/fields/fuzz_fields.py: atan(1/0) is AccumBounds(-pi/2, pi/2), which no printer
     evaluates (a PrintMethodNotImplementedError traceback); now "not finite", one line."""
     with pytest.raises(FieldSyntaxError, match="is not finite"):
         field_from_text("(pi)+(atan((y)/(z))), (atan((1/7)/(0)))/((8/2)**3), exp(((-3)**2)**3)", {})
@@ -245,7 +245,7 @@ def test_a_range_is_not_a_value():
     "(((-1)/(z))**3)**3, (tanh(y))/((cos(z))-(z)), sin(y)",
 ])
 def test_the_tolerance_is_relative_to_each_point(text):
-    """Found by benchmarks/fuzz_fields.py: with the largest |∂aᵢ/∂xⱼ| over the whole box as the scale
+    """Found by benchmarks/fields/fuzz_fields.py: with the largest |∂aᵢ/∂xⱼ| over the whole box as the scale
     (e^125 here, 1/z¹⁰ there) any divergence passed; the scale is now that of each point."""
     from vpforms import NotDivergenceFreeError
 

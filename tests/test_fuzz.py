@@ -393,11 +393,11 @@ def test_field_strings(tmp_path):
     """Issue #22: generated --field strings (nested exponents, long sums and products, complex and
     overflowing expressions, divergence-free fields, broken syntax) through the command line's
     field preparation: each ≤ 10 s, a one-line refusal or an accepted field that is real and
-    divergence free (checked independently).  benchmarks/fuzz_fields.py runs the full 10⁴."""
+    divergence free (checked independently).  benchmarks/fields/fuzz_fields.py runs the full 10⁴."""
     import importlib.util
     import pathlib
 
-    path = pathlib.Path(__file__).resolve().parents[1] / "benchmarks" / "fuzz_fields.py"
+    path = pathlib.Path(__file__).resolve().parents[1] / "benchmarks" / "fields" / "fuzz_fields.py"
     if not path.exists():
         pytest.skip("benchmarks/ is not shipped with this install")
     spec = importlib.util.spec_from_file_location("fuzz_fields", path)

@@ -8,7 +8,7 @@ potentials; rk4: none), then one step through ``vpforms.integrate`` (compilation
 ``--src`` points the child processes at another source tree (e.g. an export of the main branch) to
 compare; a row that runs past ``--timeout`` seconds is reported as such.
 
-    python benchmarks/bench_field_prep.py [--smoke] [--src DIR] [--timeout 150] [--out benchmarks/results_field_prep.md]
+    python benchmarks/fields/bench_field_prep.py [--smoke] [--src DIR] [--timeout 150] [--out benchmarks/fields/results_field_prep.md]
 """
 
 from __future__ import annotations
@@ -19,10 +19,11 @@ import subprocess
 import sys
 import time
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # benchmarks/_bench.py
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path[:0] = [HERE, os.path.dirname(HERE)]  # this topic's scripts; benchmarks/_bench.py
 from _bench import machine, parser, write_results  # noqa: E402
 
-SRC = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "src")
+SRC = os.path.join(os.path.dirname(os.path.dirname(HERE)), "src")
 
 CHILD = r"""
 import json, sys, time
@@ -56,7 +57,7 @@ def one(src: str, n: int, method: str, timeout: float) -> dict:
 
 
 def main(argv=None) -> int:
-    ap = parser(__doc__, "results_field_prep.md", rounds=1)
+    ap = parser(__doc__, os.path.join(HERE, "results_field_prep.md"), rounds=1)
     ap.add_argument("--src", default=SRC, help="source tree the child processes import vpforms from")
     ap.add_argument("--timeout", type=float, default=150.0, help="seconds per row")
     ap.add_argument("--ns", default="10,20,40,80")

@@ -13,7 +13,7 @@ compilation (best of interleaved rounds), compile time reported separately:
   the default run: measured 134 s and 19.7 GB peak memory for the first call (two lines, two
   steps; `/usr/bin/time -v`), i.e. not a practical way to trace coils; the spline is.
 
-    python benchmarks/bench_real_fields.py [--smoke] [--direct] [--rounds R] [--out benchmarks/results_real_fields.md]
+    python benchmarks/fields/bench_real_fields.py [--smoke] [--direct] [--rounds R] [--out benchmarks/fields/results_real_fields.md]
 """
 
 from __future__ import annotations
@@ -24,7 +24,8 @@ import time
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # benchmarks/_bench.py
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path[:0] = [HERE, os.path.dirname(HERE)]  # this topic's scripts; benchmarks/_bench.py
 from _bench import machine, parser  # noqa: E402
 
 import vpforms  # noqa: E402
@@ -43,7 +44,7 @@ def _direct_stellarator():
 
 
 def main(argv=None) -> int:
-    p = parser(__doc__, "results_real_fields.md", rounds=3)
+    p = parser(__doc__, os.path.join(HERE, "results_real_fields.md"), rounds=3)
     p.add_argument("--direct", action="store_true", help="also trace the coils directly (slow, ~20 GB)")
     args = p.parse_args(argv)
     t_start = time.perf_counter()

@@ -14,10 +14,10 @@ random points (relative to the field's derivatives).  Every 400th accepted field
 end to end (``vpforms run --steps 1``).  The results file is rewritten every 250 strings (a
 checkpoint), so a long run can be read while it goes.
 
-    python benchmarks/fuzz_fields.py [--smoke] [--n 10000] [--seed 0] [--out benchmarks/results_fuzz_fields.md]
+    python benchmarks/fields/fuzz_fields.py [--smoke] [--n 10000] [--seed 0] [--out benchmarks/fields/results_fuzz_fields.md]
 
 (10⁴ strings in two shards on two cores: ``--n 5000 --seed 0`` and ``--n 5000 --seed 1 --out
-benchmarks/results_fuzz_fields_seed1.md``.)
+benchmarks/fields/results_fuzz_fields_seed1.md``.)
 
 A string that ran longer than 60 s would end the script with a traceback of where it hung
 (faulthandler; no signals, which the time budget of vpforms._budget uses itself).
@@ -34,7 +34,8 @@ import time
 from collections import Counter
 from contextlib import redirect_stderr, redirect_stdout
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # benchmarks/_bench.py
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path[:0] = [HERE, os.path.dirname(HERE)]  # this topic's scripts; benchmarks/_bench.py
 from _bench import machine, parser  # noqa: E402
 
 V = ["x", "y", "z"]
@@ -267,7 +268,7 @@ def report(out, stats, problems, seed: int, seconds: float, smoke: bool, done: b
 
 
 def main(argv=None) -> int:
-    ap = parser(__doc__, "results_fuzz_fields.md", rounds=1)
+    ap = parser(__doc__, os.path.join(HERE, "results_fuzz_fields.md"), rounds=1)
     ap.add_argument("--n", type=int, default=10_000)
     ap.add_argument("--seed", type=int, default=0)
     args = ap.parse_args(argv)

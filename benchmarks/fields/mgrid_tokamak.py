@@ -5,7 +5,7 @@ minutes, see notes/closing-note-22-24.md).
 Covariant A = (0, u²/2 − R₀²u/2 + uZ², −B₀u/R₀) in (u = R²/2, φ, Z), whose curl is the problem's
 (−2uZ, B₀/R₀, u − R₀²/2 + Z²): the axis is (R₀, 0) and its ι is R₀²/B₀.
 
-    python benchmarks/mgrid_tokamak.py /tmp/mg17.nc 17
+    python benchmarks/fields/mgrid_tokamak.py /tmp/mg17.nc 17
     vpforms fieldlines --mgrid /tmp/mg17.nc --axis-guess 1.03,0.02 --transits 4 --radii 0.05,0.1 --no-recover
 """
 import numpy as np, sys

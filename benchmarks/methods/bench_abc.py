@@ -21,8 +21,8 @@ SciPy run T/h is the nominal step count).  Errors are the median over the first 
 (the same particles for every N) of max_i |x_i(T) − x_i^ref(T)|, the reference from DOP853 at
 rtol = atol = 1e-13.  Ratios are relative to the hand-written three-shear kernel.
 
-Usage:  python benchmarks/bench_abc.py [--sizes 1000,100000,1000000] [--out benchmarks/results.md]
-        python benchmarks/bench_abc.py --smoke      # tiny N, for CI (no timing claims)
+Usage:  python benchmarks/methods/bench_abc.py [--sizes 1000,100000,1000000] [--out benchmarks/methods/results.md]
+        python benchmarks/methods/bench_abc.py --smoke      # tiny N, for CI (no timing claims)
 """
 
 from __future__ import annotations
@@ -36,7 +36,8 @@ from functools import partial
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # benchmarks/_bench.py
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path[:0] = [HERE, os.path.dirname(HERE)]  # this topic's scripts; benchmarks/_bench.py
 from _bench import machine  # noqa: E402
 
 A, B, C = 1.0, math.sqrt(2.0 / 3.0), math.sqrt(1.0 / 3.0)
@@ -155,11 +156,11 @@ def main(argv=None) -> int:
                     help="for N ≥ LARGE time only the first --large-steps steps (default 10⁶)")
     ap.add_argument("--large-steps", type=int, default=20)
     ap.add_argument("--scipy-max-n", type=int, default=10**6, help="skip SciPy above this N")
-    ap.add_argument("--out", default=os.path.join(os.path.dirname(__file__), "results.md"))
+    ap.add_argument("--out", default=os.path.join(HERE, "results.md"))
     ap.add_argument("--smoke", action="store_true", help="tiny sizes for CI; no timing claims")
     ap.add_argument("--readme", default=None,
                     help="then regenerate the quote blocks of this file (e.g. README.md) from the "
-                         "results files (benchmarks/quote.py; README.md quotes benchmarks/results.md)")
+                         "results files (benchmarks/quote.py; README.md quotes benchmarks/methods/results.md)")
     args = ap.parse_args(argv)
     if args.smoke:
         args.sizes, args.T, args.repeats, args.chunk = "16,40", 1.0, 1, 16

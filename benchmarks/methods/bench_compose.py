@@ -5,7 +5,7 @@ composition Ψ*_{h/2}∘Ψ_{h/2} and Suzuki's 5-stage order 4, plus the generic 
 compositions; the ratios to the order-1 step of the same backend. The rounds are interleaved and the
 best of each taken (the machine may be shared).
 
-    python benchmarks/bench_compose.py [--smoke] [--out benchmarks/results_compose.md]
+    python benchmarks/methods/bench_compose.py [--smoke] [--out benchmarks/methods/results_compose.md]
 """
 
 from __future__ import annotations
@@ -16,7 +16,8 @@ import time
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # benchmarks/_bench.py
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path[:0] = [HERE, os.path.dirname(HERE)]  # this topic's scripts; benchmarks/_bench.py
 from _bench import machine, parser, write_results  # noqa: E402
 
 from vpforms import compose, integrate, scheme
@@ -43,7 +44,7 @@ def time_run(method, x0, steps):
 
 
 def main(argv=None) -> int:
-    args = parser(__doc__, "results_compose.md", rounds=5).parse_args(argv)
+    args = parser(__doc__, os.path.join(HERE, "results_compose.md"), rounds=5).parse_args(argv)
     t_start = time.perf_counter()
     sizes = (64,) if args.smoke else (10_000, 100_000)
     rounds = 1 if args.smoke else args.rounds

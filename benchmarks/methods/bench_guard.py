@@ -5,7 +5,7 @@ ABC SE+SE (recover=False) through ``vpforms.integrate``, the same points, with t
 JAX backend and on the native one; rounds interleaved, best of each.  The guard costs one
 evaluation of the field per step (the Euler predictor x + h a(x)).
 
-    python benchmarks/bench_guard.py [--smoke] [--rounds R] [--out benchmarks/results_guard.md]
+    python benchmarks/methods/bench_guard.py [--smoke] [--rounds R] [--out benchmarks/methods/results_guard.md]
 """
 
 from __future__ import annotations
@@ -16,7 +16,8 @@ import time
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # benchmarks/_bench.py
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path[:0] = [HERE, os.path.dirname(HERE)]  # this topic's scripts; benchmarks/_bench.py
 from _bench import machine, parser  # noqa: E402
 
 import vpforms  # noqa: E402
@@ -31,7 +32,7 @@ def _method(guard: bool):
 
 
 def main(argv=None) -> int:
-    args = parser(__doc__, "results_guard.md", rounds=5).parse_args(argv)
+    args = parser(__doc__, os.path.join(HERE, "results_guard.md"), rounds=5).parse_args(argv)
     t_start = time.perf_counter()
     P = get("abc")
     rows = []

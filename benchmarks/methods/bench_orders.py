@@ -9,7 +9,7 @@ the target. Work is counted in stages, not seconds: it is what a composition cos
 (one stage = one step of the order-1 method). The reference x(T) is DOP853 at rtol 2.3e-14; the
 error floor it leaves is measured (finest order-8 run against it) and reported.
 
-    python benchmarks/bench_orders.py [--smoke] [--out benchmarks/results_orders.md]
+    python benchmarks/methods/bench_orders.py [--smoke] [--out benchmarks/methods/results_orders.md]
 """
 
 from __future__ import annotations
@@ -21,7 +21,8 @@ import warnings
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # benchmarks/_bench.py
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path[:0] = [HERE, os.path.dirname(HERE)]  # this topic's scripts; benchmarks/_bench.py
 from _bench import machine, parser, write_results
 
 from vpforms import compose, integrate, scheme
@@ -100,7 +101,7 @@ def work_for(target, rows, s):
 
 def main(argv=None) -> int:
     warnings.simplefilter("ignore")
-    args = parser(__doc__, "results_orders.md", rounds=1).parse_args(argv)
+    args = parser(__doc__, os.path.join(HERE, "results_orders.md"), rounds=1).parse_args(argv)
     t_start = time.perf_counter()
     methods = METHODS[:2] + METHODS[6:7] if args.smoke else METHODS
     results = {}

@@ -8,7 +8,7 @@
     (errors at T against a DOP853 reference, ``vpforms.diagnostics.fit_order``), with the fraction
     of steps that were switched (recovered) at each h.
 
-    python benchmarks/bench_recovery.py [--smoke] [--out benchmarks/results_recovery.md]
+    python benchmarks/methods/bench_recovery.py [--smoke] [--out benchmarks/methods/results_recovery.md]
 
 ``--smoke`` runs tiny sizes once (checks that the script runs and writes its tables).
 """
@@ -21,7 +21,8 @@ import time
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # benchmarks/_bench.py
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path[:0] = [HERE, os.path.dirname(HERE)]  # this topic's scripts; benchmarks/_bench.py
 from _bench import machine, parser, write_results  # noqa: E402
 
 from vpforms import compose, integrate, scheme
@@ -126,7 +127,7 @@ def order_study(N, T, hs):
 
 
 def main(argv=None) -> int:
-    args = parser(__doc__, "results_recovery.md", rounds=11).parse_args(argv)
+    args = parser(__doc__, os.path.join(HERE, "results_recovery.md"), rounds=11).parse_args(argv)
     t_start = time.perf_counter()
     if args.smoke:
         a_N, a_steps, rounds = 16, 4, 1

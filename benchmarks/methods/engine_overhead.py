@@ -17,7 +17,7 @@ generic 1.02–1.30× shear, static-case the same within noise — the engine it
 ``bench_abc.py``.)  A diagnostic for issues #2/#5; it reaches into the private ``vpforms._map``
 and is not part of the test suite.
 
-    python benchmarks/engine_overhead.py
+    python benchmarks/methods/engine_overhead.py
 """
 
 from __future__ import annotations

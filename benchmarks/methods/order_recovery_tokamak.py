@@ -1,7 +1,7 @@
 """Observed order of the recovering tokamak DL+DL composed to order 4 (issue #19, items 4 and 5;
 notes/issue-23.md): the default form (nested θ-stages) and the engine form (``fast=False``).
 
-    python benchmarks/order_recovery_tokamak.py   # writes benchmarks/results_order_recovery.md
+    python benchmarks/methods/order_recovery_tokamak.py   # writes benchmarks/methods/results_order_recovery.md
 """
 import os
 import time

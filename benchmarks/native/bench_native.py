@@ -13,8 +13,8 @@ In one process, side by side (the machine is shared: only ratios measured in one
 4. native vs JAX backend, ns per particle-step, for SE+SE, the order-4 compositions and DL+DL
    (θ = ½, nested θ-stages: ``fast=True``).
 
-Usage:  python benchmarks/bench_native.py [--n 100000] [--out benchmarks/results_native.md]
-        python benchmarks/bench_native.py --smoke      # tiny N, seconds (no timing claims)
+Usage:  python benchmarks/native/bench_native.py [--n 100000] [--out benchmarks/native/results_native.md]
+        python benchmarks/native/bench_native.py --smoke      # tiny N, seconds (no timing claims)
 """
 
 from __future__ import annotations
@@ -28,7 +28,8 @@ import time
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # benchmarks/_bench.py
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path[:0] = [HERE, os.path.dirname(HERE)]  # this topic's scripts; benchmarks/_bench.py
 from _bench import best_of, fresh_native_cache  # noqa: E402
 
 A, B, C = 1.0, math.sqrt(2.0 / 3.0), math.sqrt(1.0 / 3.0)
@@ -72,7 +73,7 @@ def main(argv=None) -> int:
     ap.add_argument("--n-accuracy", type=int, default=10_000, help="particles for row 3")
     ap.add_argument("--n-jax", type=int, default=100_000, help="particles for the JAX rows")
     ap.add_argument("--repeats", type=int, default=3)
-    ap.add_argument("--out", default=os.path.join(os.path.dirname(__file__), "results_native.md"))
+    ap.add_argument("--out", default=os.path.join(HERE, "results_native.md"))
     ap.add_argument("--smoke", action="store_true")
     a = ap.parse_args(argv)
     if a.smoke:
@@ -191,7 +192,7 @@ def main(argv=None) -> int:
     lines = [
         "# Native backend benchmark (ABC flow)" + (" — smoke mode (no timing claims)" if a.smoke else ""),
         "",
-        f"`python benchmarks/bench_native.py{' --smoke' if a.smoke else ''}` on {platform.machine()}, "
+        f"`python benchmarks/native/bench_native.py{' --smoke' if a.smoke else ''}` on {platform.machine()}, "
         f"{os.cpu_count()} cores, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}; "
         f"N = {a.n}, {a.steps} steps of h = {h}; compiler: {why}; flags `{' '.join(build.FLAGS)}`; "
         f"kernels generated + compiled in {t_build:.1f} s.",

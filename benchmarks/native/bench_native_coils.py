@@ -17,7 +17,7 @@ of stepping without a run's fixed costs (JAX direct: best run of n steps / (N·n
 call − best call. The native direct and
 JAX direct rows start from the same points, and the report gives their largest difference.
 
-    PYTHONPATH=src python benchmarks/bench_native_coils.py [--smoke] [--rounds R] [--out ...]
+    PYTHONPATH=src python benchmarks/native/bench_native_coils.py [--smoke] [--rounds R] [--out ...]
 """
 
 from __future__ import annotations
@@ -28,7 +28,8 @@ import time
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # benchmarks/_bench.py
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path[:0] = [HERE, os.path.dirname(HERE)]  # this topic's scripts; benchmarks/_bench.py
 from _bench import best_of, native_missing, parser, results_tail, write_results
 
 import vpforms
@@ -40,7 +41,7 @@ R_AXIS = 0.983112  # the l2_stellarator's magnetic axis at φ = 0 (vpforms.coils
 
 
 def main(argv=None) -> int:
-    p = parser(__doc__, "results_native_coils.md", rounds=2)
+    p = parser(__doc__, os.path.join(HERE, "results_native_coils.md"), rounds=2)
     p.add_argument("--points-tf", type=int, default=8, help="vertices per TF coil (default 8)")
     p.add_argument("--points-period", type=int, default=4, help="helical vertices per period (default 4)")
     args = p.parse_args(argv)

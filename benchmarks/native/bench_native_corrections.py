@@ -15,7 +15,7 @@ compile = first call − best call (n steps). Rows:
 * the l = 2 stellarator's coils traced directly (Biot–Savart A, Hanson–Hirshman), native only:
   JAX compiles this quadrature of a quadrature for minutes.
 
-    PYTHONPATH=src python benchmarks/bench_native_corrections.py [--smoke]
+    PYTHONPATH=src python benchmarks/native/bench_native_corrections.py [--smoke]
 """
 
 from __future__ import annotations
@@ -26,7 +26,8 @@ import time
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # benchmarks/_bench.py
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path[:0] = [HERE, os.path.dirname(HERE)]  # this topic's scripts; benchmarks/_bench.py
 from _bench import fresh_native_cache, machine, native_missing, parser, per_step, write_results
 from bench_native_splines import tokamak_spline
 
@@ -37,7 +38,7 @@ from vpforms.toroidal import box_from_cylindrical, to_toroidal, toroidal_field
 
 
 def main(argv=None) -> int:
-    args = parser(__doc__, "results_native_corrections.md", rounds=3).parse_args(argv)
+    args = parser(__doc__, os.path.join(HERE, "results_native_corrections.md"), rounds=3).parse_args(argv)
     t0 = time.perf_counter()
     if native_missing():
         return 1

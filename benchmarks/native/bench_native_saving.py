@@ -9,7 +9,7 @@ save"). Rows, best of ``--rounds`` after a warm-up, one process:
   per save;
 * the same for N = 100 particles × 4000 steps (few particles, many saves: a Poincaré study's shape).
 
-    PYTHONPATH=src python benchmarks/bench_native_saving.py [--smoke]
+    PYTHONPATH=src python benchmarks/native/bench_native_saving.py [--smoke]
 """
 
 from __future__ import annotations
@@ -18,7 +18,8 @@ import os
 import sys
 import time
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # benchmarks/_bench.py
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path[:0] = [HERE, os.path.dirname(HERE)]  # this topic's scripts; benchmarks/_bench.py
 from _bench import best_of, machine, native_missing, parser, write_results
 
 import vpforms
@@ -28,7 +29,7 @@ from vpforms.backends.native.runner import CALLS, run_points
 
 
 def main(argv=None) -> int:
-    args = parser(__doc__, "results_native_saving.md", rounds=3).parse_args(argv)
+    args = parser(__doc__, os.path.join(HERE, "results_native_saving.md"), rounds=3).parse_args(argv)
     t0 = time.perf_counter()
     if native_missing():
         return 1

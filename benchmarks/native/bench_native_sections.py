@@ -12,7 +12,7 @@ Problems: the tokamak in toroidal coordinates (u, φ, Z), SE+SE order 2, the sec
 directions), h = 0.05, N lines × 2000 steps; ABC, SE+SE order 2, the planes x₃ = 0 (mod 2π),
 N = 10⁵ particles × 40 steps.
 
-    PYTHONPATH=src python benchmarks/bench_native_sections.py [--smoke]
+    PYTHONPATH=src python benchmarks/native/bench_native_sections.py [--smoke]
 """
 
 from __future__ import annotations
@@ -22,7 +22,8 @@ import os
 import sys
 import time
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # benchmarks/_bench.py
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path[:0] = [HERE, os.path.dirname(HERE)]  # this topic's scripts; benchmarks/_bench.py
 from _bench import interleaved, jax_cell, native_missing, parser, results_tail, write_results
 
 import vpforms
@@ -32,7 +33,7 @@ from vpforms.fieldlines import toroidal_section
 
 
 def main(argv=None) -> int:
-    args = parser(__doc__, "results_native_sections.md", rounds=3).parse_args(argv)
+    args = parser(__doc__, os.path.join(HERE, "results_native_sections.md"), rounds=3).parse_args(argv)
     t0 = time.perf_counter()
     if native_missing():
         return 1

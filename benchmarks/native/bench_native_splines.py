@@ -16,7 +16,7 @@ Per particle-step: (runs of 2n steps − runs of n steps) / (N·n), so that a ru
 Ratios: native spline ÷ native closed form (issue: ≤ 5×), JAX ÷ native on the same field
 (issue: ≥ 20×). All rows of one run: same process, same load.
 
-    PYTHONPATH=src python benchmarks/bench_native_splines.py [--smoke]
+    PYTHONPATH=src python benchmarks/native/bench_native_splines.py [--smoke]
 """
 
 from __future__ import annotations
@@ -27,7 +27,8 @@ import time
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # benchmarks/_bench.py
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path[:0] = [HERE, os.path.dirname(HERE)]  # this topic's scripts; benchmarks/_bench.py
 from _bench import fresh_native_cache, machine, native_missing, parser, per_step, write_results
 
 import vpforms
@@ -60,7 +61,7 @@ def tokamak_spline(n_R: int, n_phi: int, n_Z: int):
 
 
 def main(argv=None) -> int:
-    args = parser(__doc__, "results_native_splines.md", rounds=3).parse_args(argv)
+    args = parser(__doc__, os.path.join(HERE, "results_native_splines.md"), rounds=3).parse_args(argv)
     t0 = time.perf_counter()
     if native_missing():
         return 1

@@ -15,7 +15,7 @@ its steps, as in the plain trace) and a 128-gon that cuts the outer flux surface
 wall trace does fewer steps than the plain one). Problems: the tokamak in toroidal coordinates
 (u, φ, Z) and in Cartesian coordinates, SE+SE order 2, h = 0.05, N lines × 2000 steps.
 
-    PYTHONPATH=src python benchmarks/bench_native_walls.py [--smoke]
+    PYTHONPATH=src python benchmarks/native/bench_native_walls.py [--smoke]
 """
 
 from __future__ import annotations
@@ -24,7 +24,8 @@ import os
 import sys
 import time
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # benchmarks/_bench.py
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path[:0] = [HERE, os.path.dirname(HERE)]  # this topic's scripts; benchmarks/_bench.py
 from _bench import interleaved, jax_cell, native_missing, parser, results_tail, write_results
 
 import numpy as np
@@ -43,7 +44,7 @@ def _starts(N: int, toroidal: bool) -> np.ndarray:
 
 
 def main(argv=None) -> int:
-    args = parser(__doc__, "results_native_walls.md", rounds=3).parse_args(argv)
+    args = parser(__doc__, os.path.join(HERE, "results_native_walls.md"), rounds=3).parse_args(argv)
     t0 = time.perf_counter()
     if native_missing():
         return 1

@@ -24,7 +24,7 @@ Rows (one process, 2 OpenMP threads, ns per particle-step): the closed-form toka
 the spline step (native), and the two floors. A floor ÷ closed form is the least ratio a step
 that reads the spline that way at those points could reach, before solving anything.
 
-    PYTHONPATH=src python benchmarks/bench_spline_floor.py [--smoke]
+    PYTHONPATH=src python benchmarks/native/bench_spline_floor.py [--smoke]
 """
 
 from __future__ import annotations
@@ -36,7 +36,8 @@ import time
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # benchmarks/_bench.py
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path[:0] = [HERE, os.path.dirname(HERE)]  # this topic's scripts; benchmarks/_bench.py
 from _bench import best_of, machine, native_missing, parser, per_step, write_results
 from bench_native_splines import tokamak_spline
 
@@ -173,7 +174,7 @@ void vp_floor(int64_t N, const double *x, const double *X, const double *fd, con
 
 
 def main(argv=None) -> int:
-    args = parser(__doc__, "results_spline_floor.md", rounds=3).parse_args(argv)
+    args = parser(__doc__, os.path.join(HERE, "results_spline_floor.md"), rounds=3).parse_args(argv)
     t0 = time.perf_counter()
     if native_missing():
         return 1

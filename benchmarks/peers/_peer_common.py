@@ -1,6 +1,6 @@
 """What the peer scripts share (numpy + scipy only: it runs in every tool's own virtual environment).
 
-The driver ``benchmarks/bench_peers.py`` writes ``problem.json`` (the coils file, the starting
+The driver ``benchmarks/peers/bench_peers.py`` writes ``problem.json`` (the coils file, the starting
 points, the transits) into a work folder; each ``run_<tool>.py`` reads it, traces, and writes
 ``<tool>.json`` there: per run the section points (R, Z) at φ = 2πk/nfp, k = 1, 2, …, per line,
 and the wall times. The driver compares them."""

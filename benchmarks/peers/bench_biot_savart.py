@@ -16,7 +16,7 @@ points, compile apart). Their largest relative difference is printed too (the po
 
 vpforms' native backend has no stand-alone B evaluator: its coil code (``CoilA`` of
 ``backends/native/codegen/coils.py``) is A and its derivatives inside the generated stepping
-kernels, measured per particle-step by ``benchmarks/bench_native_coils.py``; it is not in this table.
+kernels, measured per particle-step by ``benchmarks/native/bench_native_coils.py``; it is not in this table.
 """
 
 from __future__ import annotations
@@ -116,7 +116,7 @@ def main() -> None:
         "points per coil; tests/test_devices.py).",
         "",
         "vpforms' native backend has no stand-alone B evaluator (its coil code is A and its derivatives "
-        "inside the stepping kernels; `benchmarks/bench_native_coils.py`), so it is not in this table.",
+        "inside the stepping kernels; `benchmarks/native/bench_native_coils.py`), so it is not in this table.",
     ]
     OUT.write_text("\n".join(lines) + "\n")
     print("\n".join(lines))

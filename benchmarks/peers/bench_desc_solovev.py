@@ -1,5 +1,5 @@
 """vpforms (φ as the time, closed form, native) against DESC on the Solov'ev study of issue #24,
-written to results_desc_solovev.md (+ peers/solovev_accuracy_time.png).
+written to results_desc_solovev.md (+ solovev_accuracy_time.png, beside it).
 
 The study (issue #24): the Solov'ev tokamak ψ = c/2·(R²Z² + κ²/4·(R² − 1)²), c = 1/(κ q₀), with
 B_φ = g/R (R₀ = B₀ = g = 1, κ = 3/2, q₀ = 6/5); 100 field lines from R ∈ [1.03, 1.32], Z = 0, φ = 0;
@@ -17,7 +17,7 @@ reported separately; surface thickness = max over the long run (`--long-transits
   ``field_line_integrate`` (Tsit5 in φ, PID, rtol = atol); its run time is the marginal cost
   (see that script), its fixed cost per call (compilation) reported separately.
 
-    PYTHONPATH=src python benchmarks/bench_desc_solovev.py [--smoke] [--venvs /work/peers] [--work DIR]
+    PYTHONPATH=src python benchmarks/peers/bench_desc_solovev.py [--smoke] [--venvs /work/peers] [--work DIR]
 """
 
 from __future__ import annotations
@@ -34,7 +34,7 @@ import sympy as sp
 from scipy.integrate import solve_ivp
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, HERE)  # benchmarks/_bench.py
+sys.path[:0] = [HERE, os.path.dirname(HERE)]  # this topic's scripts; benchmarks/_bench.py
 from _bench import machine, parser, write_results
 
 import vpforms
@@ -122,7 +122,7 @@ def run_desc(P, work, venvs):
         return None, f"no DESC environment at {python}"
     with open(os.path.join(work, "problem.json"), "w") as fh:
         json.dump(P, fh)
-    script = os.path.join(HERE, "peers", "run_desc_solovev.py")
+    script = os.path.join(HERE, "run_desc_solovev.py")
     p = subprocess.run([python, script, work], capture_output=True, text=True, check=False)
     if p.returncode != 0:
         return None, f"DESC failed: {p.stderr.strip().splitlines()[-1] if p.stderr.strip() else p.returncode}"
@@ -131,10 +131,10 @@ def run_desc(P, work, venvs):
 
 
 def main(argv=None) -> int:
-    ap = parser(__doc__, "results_desc_solovev.md", rounds=2)
+    ap = parser(__doc__, os.path.join(HERE, "results_desc_solovev.md"), rounds=2)
     ap.add_argument("--venvs", default=os.environ.get("VPFORMS_PEER_VENVS", "/work/peers"))
     ap.add_argument("--work", default=None, help="folder for problem.json and DESC's raw JSON")
-    ap.add_argument("--png", default=os.path.join(HERE, "peers", "solovev_accuracy_time.png"))
+    ap.add_argument("--png", default=os.path.join(HERE, "solovev_accuracy_time.png"))
     ap.add_argument("--long-transits", type=int, default=10_000,
                     help="transits of the one line whose surface thickness is measured (default 10⁴)")
     args = ap.parse_args(argv)
@@ -215,7 +215,7 @@ def main(argv=None) -> int:
         lines += [f"DESC not run: {why}.", ""]
     else:
         lines += [f"DESC {desc['version']} (JAX {desc['jax']}): {desc['pipeline']}. Raw JSON: `{work}`.", ""]
-    lines += ["![accuracy vs time](peers/solovev_accuracy_time.png)", "",
+    lines += ["![accuracy vs time](solovev_accuracy_time.png)", "",
               machine("bench_desc_solovev.py", time.perf_counter() - t_start, smoke), ""]
     if not smoke:
         _plot(rows, args.png)

@@ -21,7 +21,7 @@ The problem of ``bench_peers_issue_size.py``: the l = 2, m = 5 stellarator coils
    to the first 20 transits (``bench_peers_surfaces.thickness``: RMS over the fit window, over the last
    1000 transits, and the linear trend per 1000 transits), so that rows of equal wall time compare.
 
-    PYTHONPATH=src python benchmarks/bench_peers_curves.py [--tools vpforms,desc] [--reuse desc] [--smoke]
+    PYTHONPATH=src python benchmarks/peers/bench_peers_curves.py [--tools vpforms,desc] [--reuse desc] [--smoke]
 """
 
 from __future__ import annotations
@@ -35,15 +35,14 @@ import time
 import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, HERE)
-sys.path.insert(0, os.path.join(HERE, "peers"))
+sys.path[:0] = [HERE, os.path.dirname(HERE)]  # the peer scripts, _peer_common.py; benchmarks/_bench.py
 from _bench import machine, parser, write_results  # noqa: E402
 from _peer_common import dop853_section  # noqa: E402
 from bench_peers import R_AXIS, RK_TOL, _fit_residual  # noqa: E402
 from bench_peers_issue_size import BOX_R, BOX_Z, NFP, _error, run_peers  # noqa: E402
 from bench_peers_surfaces import thickness  # noqa: E402
 
-PNG = os.path.join(os.path.dirname(HERE), "docs", "figures", "stellarator_accuracy_time.png")  # the docs show it
+PNG = os.path.join(os.path.dirname(os.path.dirname(HERE)), "docs", "figures", "stellarator_accuracy_time.png")  # the docs show it
 
 
 def phi_time_of_coils(coils, grid, kgrid):
@@ -146,7 +145,7 @@ def plot(rows, path, n_tr):
 
 
 def main(argv=None) -> int:
-    ap = parser(__doc__, "results_peers_curves.md", rounds=1)
+    ap = parser(__doc__, os.path.join(HERE, "results_peers_curves.md"), rounds=1)
     ap.add_argument("--venvs", default=os.environ.get("VPFORMS_PEER_VENVS", "/work/peers"))
     ap.add_argument("--work", default=None, help="work folder (default: a temporary one); the reference is kept there")
     ap.add_argument("--tools", default="vpforms,desc", help="comma-separated subset to run")

@@ -27,7 +27,7 @@ How each tool runs (one at a time, each in its own process and virtual environme
   (default 100) transits and its 1000-transit time is **extrapolated** linearly from the marginal
   cost (said so in the table).
 
-    PYTHONPATH=src python benchmarks/bench_peers_issue_size.py [--tools vpforms,desc,essos] [--smoke]
+    PYTHONPATH=src python benchmarks/peers/bench_peers_issue_size.py [--tools vpforms,desc,essos] [--smoke]
 """
 
 from __future__ import annotations
@@ -41,8 +41,7 @@ import time
 import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, HERE)
-sys.path.insert(0, os.path.join(HERE, "peers"))
+sys.path[:0] = [HERE, os.path.dirname(HERE)]  # the peer scripts, _peer_common.py; benchmarks/_bench.py
 from _bench import machine, parser, write_results  # noqa: E402
 from _peer_common import dop853_section  # noqa: E402
 from bench_peers import R_AXIS, RK_TOL, _run_peer  # noqa: E402
@@ -205,7 +204,7 @@ def peer_row(res, ref, n_acc_tr, transits):
 
 
 def main(argv=None) -> int:
-    ap = parser(__doc__, "results_peers_issue_size.md", rounds=1)
+    ap = parser(__doc__, os.path.join(HERE, "results_peers_issue_size.md"), rounds=1)
     ap.add_argument("--venvs", default=os.environ.get("VPFORMS_PEER_VENVS", "/work/peers"),
                     help="folder holding the peers' virtual environments <venvs>/desc, <venvs>/essos")
     ap.add_argument("--work", default=None, help="work folder (default: a temporary one)")

@@ -17,7 +17,7 @@ The coil set and tools of ``bench_peers.py`` (each peer in its own environment, 
 These are accuracy measures, not timings: the wall times printed are only for orientation.
 vpforms: native, SE+SE ∘ order 4, h = 0.025 on the 96×64×96 spline of A (``bench_peers_issue_size``).
 
-    PYTHONPATH=src python benchmarks/bench_peers_surfaces.py [--tools vpforms,desc,essos] [--smoke]
+    PYTHONPATH=src python benchmarks/peers/bench_peers_surfaces.py [--tools vpforms,desc,essos] [--smoke]
 """
 
 from __future__ import annotations
@@ -31,8 +31,7 @@ import time
 import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, HERE)
-sys.path.insert(0, os.path.join(HERE, "peers"))
+sys.path[:0] = [HERE, os.path.dirname(HERE)]  # the peer scripts, _peer_common.py; benchmarks/_bench.py
 from _bench import machine, parser, write_results  # noqa: E402
 from bench_peers import R_AXIS, RK_TOL, _fit_residual  # noqa: E402
 from bench_peers_issue_size import BOX_R, BOX_Z, NFP, _per_line, run_peers  # noqa: E402
@@ -91,7 +90,7 @@ def run_vpforms(x_R, long_i, iota_tr, long_tr, grid, order, h):
 
 
 def main(argv=None) -> int:
-    ap = parser(__doc__, "results_peers_surfaces.md", rounds=1)
+    ap = parser(__doc__, os.path.join(HERE, "results_peers_surfaces.md"), rounds=1)
     ap.add_argument("--venvs", default=os.environ.get("VPFORMS_PEER_VENVS", "/work/peers"))
     ap.add_argument("--work", default=None, help="work folder (default: a temporary one)")
     ap.add_argument("--tools", default="vpforms,desc,essos", help="comma-separated subset to run")

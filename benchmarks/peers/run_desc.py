@@ -1,4 +1,4 @@
-"""DESC on the common problem (runs in DESC's environment): ``python run_desc.py WORKDIR``.
+"""DESC on the common problem (runs in DESC's environment): ``python benchmarks/peers/run_desc.py WORKDIR``.
 
 Pipeline: MAKEGRID coils → ``desc.coils.MixedCoilSet.from_makegrid_coilfile`` (SplineXYZCoils) →
 B by Biot–Savart (Hanson–Hirshman straight segments) evaluated directly at every stage →

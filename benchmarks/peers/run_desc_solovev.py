@@ -1,4 +1,4 @@
-"""DESC on the Solov'ev study of issue #24 (runs in DESC's environment): ``python run_desc_solovev.py WORKDIR``.
+"""DESC on the Solov'ev study of issue #24 (runs in DESC's environment): ``python benchmarks/peers/run_desc_solovev.py WORKDIR``.
 
 The field, in (R, φ, Z): ψ = c/2·(R²Z² + κ²/4·(R² − 1)²), c = 1/(κ q₀), B_R = −(1/R)∂ψ/∂Z = −cRZ,
 B_Z = (1/R)∂ψ/∂R = c(Z² + κ²/2·(R² − 1)), B_φ = g/R — given to DESC as

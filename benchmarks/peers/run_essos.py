@@ -1,4 +1,4 @@
-"""ESSOS on the common problem (runs in ESSOS's environment): ``python run_essos.py WORKDIR``.
+"""ESSOS on the common problem (runs in ESSOS's environment): ``python benchmarks/peers/run_essos.py WORKDIR``.
 
 Pipeline: ESSOS has no MAKEGRID coils reader: the file's polylines (read here) are fitted by
 ESSOS's Fourier curves (``essos.coils.fit_dofs_from_coils``, uniform in the file's parameter; TF

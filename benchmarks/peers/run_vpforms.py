@@ -1,4 +1,4 @@
-"""vpforms on the common problem (runs in vpforms' own environment): ``python run_vpforms.py WORKDIR``.
+"""vpforms on the common problem (runs in vpforms' own environment): ``python benchmarks/peers/run_vpforms.py WORKDIR``.
 
 Pipeline: MAKEGRID coils → ``vpforms.coils.read_makegrid`` → the coils' vector potential A
 (Hanson–Hirshman, closed form) sampled on a 40 × 32 × 40 (R, φ, Z) grid over one field period →

@@ -11,9 +11,9 @@ path costs against plain ``vpforms.integrate``, and 1 vs 2 local Dask workers.
 2. the store path's own cost on one chunk, in process, against plain ``integrate``;
 3. 1 vs 2 workers, native, warm.
 
-    PYTHONPATH=src python benchmarks/bench_distributed.py              # N = 10⁶ → results_distributed.md
-    PYTHONPATH=src python benchmarks/bench_distributed.py --n 200000   # a smaller N
-    PYTHONPATH=src python benchmarks/bench_distributed.py --smoke      # seconds, N = 2·10³
+    PYTHONPATH=src python benchmarks/scale/bench_distributed.py              # N = 10⁶ → results_distributed.md
+    PYTHONPATH=src python benchmarks/scale/bench_distributed.py --n 200000   # a smaller N
+    PYTHONPATH=src python benchmarks/scale/bench_distributed.py --smoke      # seconds, N = 2·10³
 """
 
 from __future__ import annotations
@@ -26,7 +26,8 @@ import time
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # benchmarks/_bench.py
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path[:0] = [HERE, os.path.dirname(HERE)]  # this topic's scripts; benchmarks/_bench.py
 from _bench import machine, parser, write_results
 
 import vpforms as V
@@ -51,7 +52,7 @@ def _files(store: str) -> dict:
 
 
 def main(argv=None) -> int:
-    ap = parser(__doc__, "results_distributed.md", rounds=3)
+    ap = parser(__doc__, os.path.join(HERE, "results_distributed.md"), rounds=3)
     ap.add_argument("--n", type=int, default=1_000_000, help="particles (default 10⁶)")
     ap.add_argument("--steps", type=int, default=100, help="steps (default 100)")
     ap.add_argument("--save-every", type=int, default=50, help="saved every k steps (default 50)")

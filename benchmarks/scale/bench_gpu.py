@@ -4,8 +4,8 @@ CPU cores of the same machine, written to results_gpu.md (issue: the mission's "
 Never part of CI (CI has no GPU). On a machine with a CUDA JAX, run it twice — once per platform —
 and the second call merges the rows:
 
-    JAX_PLATFORMS=cuda PYTHONPATH=src python benchmarks/bench_gpu.py --out results_gpu.json
-    JAX_PLATFORMS=cpu  PYTHONPATH=src python benchmarks/bench_gpu.py --out results_gpu.json --md results_gpu.md
+    JAX_PLATFORMS=cuda PYTHONPATH=src python benchmarks/scale/bench_gpu.py --out results_gpu.json
+    JAX_PLATFORMS=cpu  PYTHONPATH=src python benchmarks/scale/bench_gpu.py --out results_gpu.json --md results_gpu.md
 
 Per platform and N (ABC flow, h = 0.1, ``--steps`` steps, one compiled call per method and N):
 ns per particle-step (best of ``--rounds`` after compilation, ``jax.block_until_ready``) of
@@ -33,7 +33,7 @@ import time
 import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, HERE)
+sys.path[:0] = [HERE, os.path.dirname(HERE), os.path.join(os.path.dirname(HERE), "methods")]  # _bench.py, methods/bench_abc.py
 
 
 def main(argv=None) -> int:
@@ -109,7 +109,7 @@ def markdown(rows) -> str:
     methods = list(dict.fromkeys(r["method"] for r in timing))
     out = ["# vpforms on a GPU: millions of particles", "",
            ("ns per particle-step (ABC flow, h = 0.1, 100 steps, all N particles in one compiled call; "
-            "best of 2 after compilation). Written by `benchmarks/bench_gpu.py` (see its docstring: one "
+            "best of 2 after compilation). Written by `benchmarks/scale/bench_gpu.py` (see its docstring: one "
             "run per platform on the same machine)."), ""]
     for w in wheres:
         m = meta.get(w, {})

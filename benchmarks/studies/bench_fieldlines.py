@@ -10,7 +10,7 @@ order 2 (recover=False), JAX backend, N lines × S steps; best of interleaved ro
 * ``trace_to_wall`` — a box wall that no line reaches (the scan with its per-step wall test);
 * ``magnetic_axis`` — Newton on the return map with its exact Jacobian, and the ι of the axis.
 
-    python benchmarks/bench_fieldlines.py [--smoke] [--rounds R] [--out benchmarks/results_fieldlines.md]
+    python benchmarks/studies/bench_fieldlines.py [--smoke] [--rounds R] [--out benchmarks/studies/results_fieldlines.md]
 """
 
 from __future__ import annotations
@@ -21,7 +21,8 @@ import time
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # benchmarks/_bench.py
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path[:0] = [HERE, os.path.dirname(HERE)]  # this topic's scripts; benchmarks/_bench.py
 from _bench import best_of, machine, parser, write_results  # noqa: E402
 
 import vpforms  # noqa: E402
@@ -30,7 +31,7 @@ from vpforms.fieldlines import Wall, magnetic_axis, rotational_transform, toroid
 
 
 def main(argv=None) -> int:
-    args = parser(__doc__, "results_fieldlines.md", rounds=3).parse_args(argv)
+    args = parser(__doc__, os.path.join(HERE, "results_fieldlines.md"), rounds=3).parse_args(argv)
     t_start = time.perf_counter()
     N, S = (4, 64) if args.smoke else (100, 2000)
     rounds = 1 if args.smoke else args.rounds

@@ -22,7 +22,7 @@ Run time per transit and line: best of rounds after compilation (one process; a 
 has a fixed number of steps, so the number of transits it covers varies with h). Compile = first
 call − best call.
 
-    python benchmarks/bench_phitime.py [--smoke] [--rounds R] [--out benchmarks/results_phitime.md]
+    python benchmarks/studies/bench_phitime.py [--smoke] [--rounds R] [--out benchmarks/studies/results_phitime.md]
 """
 
 from __future__ import annotations
@@ -37,7 +37,8 @@ import jax.numpy as jnp
 import numpy as np
 from scipy.integrate import solve_ivp
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # benchmarks/_bench.py
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path[:0] = [HERE, os.path.dirname(HERE)]  # this topic's scripts; benchmarks/_bench.py
 from _bench import best_of, machine, parser, write_results
 
 import vpforms
@@ -96,7 +97,7 @@ def timed(fn, rounds):
 
 
 def main(argv=None) -> int:
-    p = parser(__doc__, "results_phitime.md", rounds=2)
+    p = parser(__doc__, os.path.join(HERE, "results_phitime.md"), rounds=2)
     args = p.parse_args(argv)
     t_start = time.perf_counter()
     transits = 2 if args.smoke else 20

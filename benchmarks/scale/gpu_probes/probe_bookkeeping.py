@@ -1,6 +1,6 @@
 """GPU probe (results_gpu.md, 'Where the time goes'): the batched step_with_status in a fori_loop, alone and with integrate's status bookkeeping, guard on/off.
 
-    PYTHONPATH=src:benchmarks python3 benchmarks/gpu_probes/probe_bookkeeping.py N
+    PYTHONPATH=src python3 benchmarks/scale/gpu_probes/probe_bookkeeping.py N
 """
 # ruff: noqa: B023  (each closure is called inside the loop iteration that defines it)
 import sys

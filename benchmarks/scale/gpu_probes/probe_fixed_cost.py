@@ -1,6 +1,6 @@
 """GPU probe (results_gpu.md, 'Where the time goes'): the fixed cost of an integrate() call: 1, 100, 256, 400 steps, with and without saves.
 
-    PYTHONPATH=src:benchmarks python3 benchmarks/gpu_probes/probe_fixed_cost.py N
+    PYTHONPATH=src python3 benchmarks/scale/gpu_probes/probe_fixed_cost.py N
 """
 
 import sys

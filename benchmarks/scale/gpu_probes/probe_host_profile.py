@@ -1,6 +1,6 @@
 """GPU probe (results_gpu.md, 'Where the time goes'): cProfile of a 1-step integrate() call: the host-side work of a call.
 
-    PYTHONPATH=src:benchmarks python3 benchmarks/gpu_probes/probe_host_profile.py N
+    PYTHONPATH=src python3 benchmarks/scale/gpu_probes/probe_host_profile.py N
 """
 
 import cProfile

@@ -1,8 +1,9 @@
 """GPU probe (results_gpu.md, 'Where the time goes'): integrate() with the consistency guard on/off and lax.cond replaced by where, against the hand-written kernel and vmap(step) in a fori_loop.
 
-    PYTHONPATH=src:benchmarks python3 benchmarks/gpu_probes/probe_structure.py N
+    PYTHONPATH=src python3 benchmarks/scale/gpu_probes/probe_structure.py N
 """
 # ruff: noqa: B023  (each closure is called inside the loop iteration that defines it)
+import os
 import sys
 import time
 import types
@@ -15,7 +16,7 @@ import vpforms
 import vpforms._integrate as I
 from vpforms import problems
 
-sys.path.insert(0, "benchmarks")
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "methods"))  # bench_abc.py
 from bench_abc import _jax_kernels
 
 N = int(sys.argv[1]) if len(sys.argv) > 1 else 4_000_000

@@ -12,7 +12,7 @@
 Each is one :class:`~vpforms._methods._stages.Composition`: the list of order-1 stages (Ψ or Ψ*)
 with their coefficients of h (issue #19, stages as data). The cost of a step is its number of
 order-1 stages (:func:`stages`) times the cost of one step of the method;
-``benchmarks/results_orders.md`` measures which composition needs the fewest stages for a given
+``benchmarks/methods/results_orders.md`` measures which composition needs the fewest stages for a given
 accuracy.
 """
 
@@ -89,7 +89,7 @@ def compose(method: Method, order: int = 2, scheme: str | None = None) -> Method
             "triple_jump": 54
     ======  ======================================================================================
 
-    Which needs the fewest stages for a given accuracy (``benchmarks/results_orders.md``: SE+SE,
+    Which needs the fewest stages for a given accuracy (``benchmarks/methods/results_orders.md``: SE+SE,
     max global error at T = 4, stages for the whole run; after ";" those within 10 %):
 
     ======  ==========================================  ==========================================
