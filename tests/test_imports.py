@@ -3,7 +3,9 @@
 Builds the import graph of ``src/vpforms`` with :mod:`ast` — every ``import`` / ``from … import``
 anywhere in a module (module body, class bodies, ``try``/``if`` blocks AND function bodies),
 relative ones resolved; ``from . import x`` where ``x`` is a submodule is an edge to that
-submodule; ``if TYPE_CHECKING:`` blocks never run and are not edges — and checks that
+submodule; an import of ``vpforms.p.m`` from outside the package ``vpforms.p`` is also an edge to
+``vpforms.p`` (its ``__init__`` runs first); ``if TYPE_CHECKING:`` blocks never run and are not
+edges — and checks that
 
 * the graph of vpforms modules, imports inside functions INCLUDED, is acyclic: a lazy import is
   still a dependency (a failure prints one cycle as a chain, each edge with its line), and
@@ -117,9 +119,17 @@ class _Visitor(ast.NodeVisitor):
                 dst = dst.rpartition(".")[0]
         else:
             dst = dst.partition(".")[0]
-        edge = Edge(self.module, dst, line, self.depth > 0, internal)
-        if dst != self.module and edge not in self.edges:
-            self.edges.append(edge)
+        targets = [dst]
+        if internal:  # importing vpforms.p.m runs vpforms/p/__init__.py first (unless inside p)
+            parts = dst.split(".")
+            for i in range(2, len(parts)):
+                pkg = ".".join(parts[:i])
+                if pkg in self.modules and not _within(self.module, pkg):
+                    targets.append(pkg)
+        for target in targets:
+            edge = Edge(self.module, target, line, self.depth > 0, internal)
+            if target != self.module and edge not in self.edges:
+                self.edges.append(edge)
 
     def _function(self, node) -> None:
         self.depth += 1
@@ -315,7 +325,8 @@ def test_allow_list_is_live():
 
 def test_the_checker_sees_a_lazy_cycle_and_a_function_import(tmp_path):
     """The tool itself: a cycle closed by an import inside a function is a cycle (reported as a
-    chain with lines); a deferred import of a non-extra is reported, an extra's is not."""
+    chain with lines), and so is one through a package's ``__init__``; a deferred import of a
+    non-extra is reported, an extra's is not."""
     pkg = tmp_path / PACKAGE
     (pkg / "sub").mkdir(parents=True)
     (pkg / "__init__.py").write_text("from . import a\nfrom .sub import c\n")
@@ -336,9 +347,17 @@ def test_the_checker_sees_a_lazy_cycle_and_a_function_import(tmp_path):
     assert (f"{PACKAGE}", f"{PACKAGE}.sub.c") in pairs
     assert (f"{PACKAGE}.sub.c", f"{PACKAGE}.a") in pairs
     assert (f"{PACKAGE}.sub.c", f"{PACKAGE}.b") not in pairs  # TYPE_CHECKING never runs
+    assert (f"{PACKAGE}.b", f"{PACKAGE}.sub") not in pairs
+    (pkg / "sub" / "__init__.py").write_text("from .. import b\n")  # runs whenever sub.c is imported
+    (pkg / "sub" / "d.py").write_text("")
+    (pkg / "b.py").write_text("def f():\n    from .sub.d import h\n")
+    found = cycles(import_graph(tmp_path))
+    assert found == [[f"{PACKAGE}.b", f"{PACKAGE}.sub"]], found
+    (pkg / "sub" / "__init__.py").write_text("")
+    (pkg / "sub" / "d.py").unlink()
     (pkg / "b.py").write_text("import json\n")  # the cycle broken: layers exist
     assert layers(import_graph(tmp_path)) == {
-        0: [f"{PACKAGE}.b"], 1: [f"{PACKAGE}.a"], 2: [f"{PACKAGE}.sub.c"],
+        0: [f"{PACKAGE}.b", f"{PACKAGE}.sub"], 1: [f"{PACKAGE}.a"], 2: [f"{PACKAGE}.sub.c"],
         3: [PACKAGE]}
 
 
