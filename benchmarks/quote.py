@@ -204,9 +204,9 @@ def stale(text: str, root: Path = ROOT, where: str = "") -> list[str]:
 
 
 def results_rows(root: Path = ROOT) -> dict[str, str]:
-    """Every table row (header and body, not the ``|---|`` rule) of benchmarks/results*.md → its file."""
+    """Every table row (header and body, not the ``|---|`` rule) of benchmarks/<topic>/results*.md → its file."""
     rows: dict[str, str] = {}
-    for f in sorted((root / "benchmarks").glob("results*.md")):
+    for f in sorted((root / "benchmarks").rglob("results*.md")):
         for line in f.read_text(encoding="utf-8").splitlines():
             line = line.strip()
             if line.startswith("|") and not re.fullmatch(r"[|\s:-]+", line):
