@@ -338,6 +338,63 @@ class ToroidalDomain:
             return np.stack([R * R / 2, phi, Z], axis=1)
         return np.stack([R * np.cos(phi), R * np.sin(phi), Z], axis=1)
 
+    def node_mask(self, R: Any, phi: Any, Z: Any, pad: int = 2) -> np.ndarray:
+        """Which nodes of the tensor grid ``R`` × ``phi`` × ``Z`` (φ: one field period, periodic)
+        a grid that follows this domain keeps: the corners of every cell that meets the domain
+        (conservatively: the boundary's signed distance at the cell's centre is at most its
+        half-diagonal in (R, Z) plus ``vertex_speed``·Δφ/2), dilated by ``pad`` nodes along each
+        axis (so that the fit's run ends lie ``pad`` cells from the domain). Shape (nR, nφ, nZ)."""
+        R, phi, Z = (np.asarray(a, dtype=float) for a in (R, phi, Z))
+        nR, nP, nZ = R.size, phi.size, Z.size
+        phi_next = np.append(phi[1:], phi[0] + 2 * np.pi / self.nfp if nP > 1 else phi[0])
+        Rc, Pc, Zc = 0.5 * (R[:-1] + R[1:]), 0.5 * (phi + phi_next), 0.5 * (Z[:-1] + Z[1:])
+        half = 0.5 * np.hypot(np.diff(R)[:, None, None], np.diff(Z)[None, None, :])
+        dphi = (phi_next - phi)[None, :, None]
+        G = np.meshgrid(Rc, Pc, Zc, indexing="ij")
+        d = np.asarray(self.signed_distance(G[0].ravel(), G[1].ravel(), G[2].ravel())).reshape(G[0].shape)
+        cell = d <= half + self.vertex_speed * 0.5 * np.abs(dphi)
+        keep = np.zeros((nR, nP, nZ), bool)
+        for a in (0, 1):
+            for b in (0, 1):
+                for c in (0, 1):
+                    keep[a:nR - 1 + a, :, c:nZ - 1 + c] |= np.roll(cell, b, axis=1) if b else cell
+        for _ in range(int(pad)):
+            grown = keep.copy()
+            grown[1:] |= keep[:-1]
+            grown[:-1] |= keep[1:]
+            grown |= np.roll(keep, 1, axis=1) | np.roll(keep, -1, axis=1)
+            grown[:, :, 1:] |= keep[:, :, :-1]
+            grown[:, :, :-1] |= keep[:, :, 1:]
+            keep = grown
+        return keep
+
+    def inside_point(self, toroidal: bool = True) -> Callable[[Any], Any]:
+        """x (3,) ↦ whether x (in a field's coordinates: (u = R²/2, φ, Z) where ``toroidal``, else
+        Cartesian) is inside: JAX, for :attr:`vpforms.Field.inside`."""
+        geom = self._geom
+
+        def inside(x):
+            if toroidal:
+                R, ph = jnp.sqrt(2.0 * x[0]), x[1]
+            else:
+                R, ph = jnp.hypot(x[0], x[1]), jnp.arctan2(x[1], x[0])
+            return boundary_inside(geom, R, ph, x[2])
+
+        return inside
+
+    def check_points(self, points: Any, toroidal: bool = True, what: str = "starting point") -> None:
+        """ValueError naming the first of ``points`` (N, 3) in a field's coordinates that lies
+        outside (for :attr:`vpforms.Field.domain_check`)."""
+        p = np.asarray(points, dtype=float).reshape(-1, 3)
+        with np.errstate(invalid="ignore"):
+            R, ph = (np.sqrt(2 * p[:, 0]), p[:, 1]) if toroidal else (np.hypot(p[:, 0], p[:, 1]),
+                                                                        np.arctan2(p[:, 1], p[:, 0]))
+        ok = self.contains(np.c_[R, ph, p[:, 2]])
+        if not ok.all():
+            i = int(np.flatnonzero(~ok)[0])
+            raise ValueError(f"{what} {i} at (R, φ, Z) = ({R[i]:.6g}, {ph[i]:.6g}, {p[i, 2]:.6g}) is outside the "
+                             f"domain {self.name!r} of the field ({int((~ok).sum())} of {len(ok)} outside)")
+
     def check_within(self, R_range: Sequence[float], Z_range: Sequence[float], what: str = "the grid") -> None:
         """ValueError if the boundary leaves the rectangle R_range × Z_range (e.g. a grid's box),
         naming the plane and the vertex."""

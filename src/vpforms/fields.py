@@ -259,8 +259,12 @@ class Field:
         self.__dict__.pop("_checked_pairs", None)
 
     def sample_points(self, n: int | None = None, seed: int | None = None) -> np.ndarray:
-        """Seeded uniform sample points in :attr:`box`."""
-        return sample_box(self.box, self.n_samples if n is None else n, self.seed if seed is None else seed)
+        """Seeded uniform sample points in :attr:`domain` where the field has one, else in :attr:`box`."""
+        n = self.n_samples if n is None else n
+        seed = self.seed if seed is None else seed
+        if self.domain is not None:
+            return self.domain.sample_points(n, seed, toroidal=str(self.coordinates).startswith("toroidal"))
+        return sample_box(self.box, n, seed)
 
     def check_real(self, points: Any, what: str = "the given points") -> None:
         """NotRealFieldError (one line, naming the component and a point) unless the field is real
@@ -549,6 +553,8 @@ class Field:
         seed: int = 0,
         origin: Sequence[float] = (0.0, 0.0, 0.0),
         quadrature_n: int = DEFAULT_N,
+        domain: ToroidalDomain | None = None,
+        coordinates: str | None = None,
     ) -> "Field":
         """A field from a JAX-traceable callable ``a(x)`` (x of shape (3,) → shape (3,)), or from
         three scalar callables ``(a1, a2, a3)`` of (x1, x2, x3).
@@ -617,6 +623,9 @@ class Field:
             seed=seed,
             n_samples=n_samples,
         )
+        if coordinates is not None:
+            field.coordinates = coordinates
+        field.domain = domain  # where it is given, the checks below sample it, not the box
         pts = jnp.asarray(field.sample_points())
         J = np.asarray(field.jacobian(pts))
         if not np.all(np.isfinite(J)):
@@ -673,6 +682,8 @@ class Field:
         seed: int = 0,
         origin: Sequence[float] = (0.0, 0.0, 0.0),
         quadrature_n: int = DEFAULT_N,
+        domain: ToroidalDomain | None = None,
+        coordinates: str | None = None,
     ) -> "Field":
         """The field a = ∇×A of a vector potential: a :class:`~vpforms._vecpot.VectorPotential`
         (coils, a spline of A on a grid, a toroidal-coordinate potential), three JAX scalar callables
@@ -689,7 +700,7 @@ class Field:
             A = CallablePotential(comps, periods if periods is not None else (None,) * 3)
         field = cls.from_callable(
             curl_of(A.components()), box=box, name=name, tol=tol, n_samples=n_samples, seed=seed,
-            origin=origin, quadrature_n=quadrature_n,
+            origin=origin, quadrature_n=quadrature_n, domain=domain, coordinates=coordinates,
         )
         field._vector_potentials.append(A)
         field.periods = tuple(A.periods) if periods is None else tuple(periods)

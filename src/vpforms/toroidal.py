@@ -151,7 +151,8 @@ def toroidal_field(A_cartesian: Callable[[Any], Any] | VectorPotential | CoilSet
     directly, ``nfp`` by default the set's) or a :class:`~vpforms._vecpot.VectorPotential` already
     in (u, φ, Z) (a spline on a grid); ``nfp`` defaults to 1 otherwise; ``box`` is in (u, φ, Z)
     (see :func:`box_from_cylindrical`). Further keywords go to
-    :meth:`vpforms.Field.from_vector_potential`."""
+    :meth:`vpforms.Field.from_vector_potential` (``domain=``: a
+    :class:`~vpforms.domains.ToroidalDomain` in (R, φ, Z) where the field is used and checked)."""
     if isinstance(A_cartesian, CoilSet):
         A_cartesian, nfp = CoilPotential(A_cartesian), A_cartesian.nfp if nfp is None else nfp
     nfp = 1 if nfp is None else nfp
@@ -159,6 +160,5 @@ def toroidal_field(A_cartesian: Callable[[Any], Any] | VectorPotential | CoilSet
         A = A_cartesian
     else:
         A = ToroidalPotential(A_cartesian, nfp)
-    field = Field.from_vector_potential(A, box=box, name=name, **kw)
-    field.coordinates = "toroidal (u = R²/2, φ, Z)"
+    field = Field.from_vector_potential(A, box=box, name=name, coordinates="toroidal (u = R²/2, φ, Z)", **kw)
     return field

@@ -56,6 +56,7 @@ from jax.custom_derivatives import SymbolicZero
 from scipy.interpolate import BSpline, make_interp_spline
 
 from .. import _config  # noqa: F401  (float64)
+from ._masked import masked_axis_fit
 
 __all__ = [
     "PeriodicAntiderivative", "TensorSpline", "basis_functions", "cell_polynomials", "evaluate",
@@ -347,13 +348,17 @@ class TensorSpline:
     @classmethod
     def interpolate(cls, nodes: Sequence[Any], values: Any,
                     periodic: Sequence[bool | float | None] = (False, False, False),
-                    degree: int | Sequence[int] = 3) -> TensorSpline:
+                    degree: int | Sequence[int] = 3, mask: Any = None) -> TensorSpline:
         """The spline that interpolates ``values`` (n₁, n₂, n₃) at the tensor grid of ``nodes``.
 
         Per axis ``periodic`` is False/None (not-a-knot ends), True (uniform nodes covering one
         period without its endpoint: T = n·Δx) or a number, the period T (nodes in [x₀, x₀ + T),
         endpoint excluded). Fitted axis by axis with ``scipy.interpolate.make_interp_spline``
         (``bc_type="periodic"`` on a periodic axis, with the first value appended at x₀ + T).
+
+        ``mask`` (bool, the grid's shape): the nodes whose values count (elsewhere ``values`` may be
+        NaN); every grid line is fitted on its runs of kept nodes only, and the coefficients no
+        run touches are NaN (:mod:`vpforms.grids._masked`): a grid that follows a domain.
         """
         degrees = (degree,) * 3 if np.ndim(degree) == 0 else tuple(degree)
         if len(nodes) != 3 or len(periodic) != 3 or len(degrees) != 3:
@@ -362,8 +367,11 @@ class TensorSpline:
         shape = tuple(np.size(n) for n in nodes)
         if c.shape != shape:
             raise ValueError(f"values must have the grid's shape {shape}; got {c.shape}")
-        if not np.all(np.isfinite(c)):
-            raise ValueError("values must be finite")
+        keep = None if mask is None else np.asarray(mask, dtype=bool)
+        if keep is not None and keep.shape != shape:
+            raise ValueError(f"mask must have the grid's shape {shape}; got {keep.shape}")
+        if not np.all(np.isfinite(c if keep is None else c[keep])):
+            raise ValueError("values must be finite" + ("" if keep is None else " at the kept nodes"))
         knots, periods = [], []
         for a in range(3):
             k = degrees[a]
@@ -374,6 +382,11 @@ class TensorSpline:
             if x.ndim != 1 or not np.all(np.isfinite(x)) or np.any(np.diff(x) <= 0):
                 raise ValueError(f"axis {a}: nodes must be a finite strictly increasing 1-D array")
             T = _period(periodic[a], x, a)
+            if keep is not None:
+                t, c, keep = _masked_axis(x, T, c, keep, k, a)
+                knots.append(t)
+                periods.append(T)
+                continue
             if T is None:
                 if x.size < k + 1:
                     raise ValueError(f"axis {a}: a degree-{k} spline needs ≥ {k + 1} nodes; "
@@ -405,7 +418,9 @@ class TensorSpline:
         k, T = self.degrees[axis], self.periods[axis]
         m = t.size - k - 1
         lo, hi = float(t[k]), float(t[m])
-        coef = np.moveaxis(np.asarray(self.coefficients), axis, 0)
+        # NaN coefficients (a grid that follows a domain, vpforms.grids._masked) count as 0 here:
+        # χ stays a smooth function, and ∂χ/∂x_axis is the spline wherever the spline is defined
+        coef = np.nan_to_num(np.moveaxis(np.asarray(self.coefficients), axis, 0), nan=0.0)
         F = BSpline(t, coef, k, extrapolate=False).antiderivative()
         t2, k2 = np.asarray(F.t), F.k
         d = np.asarray(F.c)[: t2.size - k2 - 1]  # scipy pads c to len(t)
@@ -456,6 +471,28 @@ def _periodic_interpolation(x: np.ndarray, T: float, y: np.ndarray, k: int, axis
     c = np.linalg.solve(M, Y.reshape(n, -1)).reshape(Y.shape)
     c = np.concatenate([c, c[:k]], axis=0)  # the k wrapped coefficients
     return t, np.moveaxis(c, 0, axis)
+
+
+def _masked_axis(x: np.ndarray, T: float | None, c: np.ndarray, keep: np.ndarray, k: int, axis: int
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """One axis of the masked interpolation: (knots, coefficients with NaN where untouched, the
+    kept mask of the coefficients for the next axis)."""
+    n = x.size
+    if T is None:
+        t = np.asarray(make_interp_spline(x, np.zeros(n), k=k).t)
+
+        def full(Y):
+            return np.asarray(make_interp_spline(x, Y, k=k, axis=0).c)
+    else:
+        t = _periodic_interpolation(x, T, np.zeros((n, 1)), k, 0)[0]
+
+        def full(Y):
+            return _periodic_interpolation(x, T, Y, k, 0)[1]
+    Y = np.moveaxis(c, axis, 0)
+    K = np.moveaxis(keep, axis, 0)
+    C = masked_axis_fit(x, t, k, T, Y.reshape(n, -1), K.reshape(n, -1), full)
+    C = np.moveaxis(C.reshape((C.shape[0],) + Y.shape[1:]), 0, axis)
+    return t, C, np.isfinite(C)
 
 
 def _period(flag: bool | float | None, x: np.ndarray, axis: int) -> float | None:

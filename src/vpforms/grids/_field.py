@@ -100,8 +100,8 @@ def _check_axis(name: str, x: Any) -> np.ndarray:
 
 def cylindrical_potential(R: Any, phi: Any, Z: Any, *, nfp: int = 1, A: Any = None,
                           B: Any = None, degree: int = 3, source: str = "grid",
-                          warn: bool = True,
-                          curl_tol: float | None = CURL_MISMATCH_LIMIT) -> tuple[SplinePotential, GridReport]:
+                          warn: bool = True, curl_tol: float | None = CURL_MISMATCH_LIMIT,
+                          mask: Any = None) -> tuple[SplinePotential, GridReport]:
     """The spline potential in (u = R²/2, φ, Z) of a field sampled on a cylindrical grid.
 
     Parameters
@@ -118,6 +118,11 @@ def cylindrical_potential(R: Any, phi: Any, Z: Any, *, nfp: int = 1, A: Any = No
         the gauge of the module docstring and a :class:`GridWarning` reports the mismatch.
     source:
         A name for messages (the file).
+    mask:
+        Bool (len(R), len(phi), len(Z)): the nodes a grid that follows a domain keeps
+        (:meth:`vpforms.domains.ToroidalDomain.node_mask`; with ``A`` only): A may be NaN
+        elsewhere, each grid line is fitted on its runs of kept nodes, and the spline is NaN on
+        the cells they do not cover (:mod:`vpforms.grids._masked`).
 
     Returns
     -------
@@ -130,6 +135,11 @@ def cylindrical_potential(R: Any, phi: Any, Z: Any, *, nfp: int = 1, A: Any = No
         raise ValueError(f"nfp must be a positive integer; got {nfp!r}")
     T = 2 * np.pi / int(nfp)
     shape = (3, R.size, phi.size, Z.size)
+    keep = None if mask is None else np.asarray(mask, dtype=bool)
+    if keep is not None and (keep.shape != shape[1:] or A is None or B is not None or phi.size == 1):
+        raise ValueError(f"{source}: a mask needs A alone (no B), more than one φ plane and the grid's "
+                         f"shape {shape[1:]}; got mask {keep.shape}, A {'given' if A is not None else 'None'}, "
+                         f"B {'given' if B is not None else 'None'}, {phi.size} plane(s)")
     A = None if A is None else np.asarray(A, dtype=float)
     B = None if B is None else np.asarray(B, dtype=float)
     for what, arr in (("A", A), ("B", B)):
@@ -137,8 +147,9 @@ def cylindrical_potential(R: Any, phi: Any, Z: Any, *, nfp: int = 1, A: Any = No
             if arr.shape != shape:
                 raise ValueError(f"{source}: {what} must have shape (3, nR, nφ, nZ) = {shape}; "
                                  f"got {arr.shape}")
-            if not np.all(np.isfinite(arr)):
-                c, i, k, j = (int(v) for v in np.argwhere(~np.isfinite(arr))[0])
+            kept = np.ones(arr.shape[1:], bool) if keep is None else keep
+            if not np.all(np.isfinite(arr[:, kept])):
+                c, i, k, j = (int(v) for v in np.argwhere(~np.isfinite(arr) & kept[None])[0])
                 raise ValueError(f"{source}: {what} has a non-finite value ({arr[c, i, k, j]}) in "
                                  f"{what}_{'RφZ'[c]} at the node R = {_g(R[i])}, φ = {_g(phi[k])}, "
                                  f"Z = {_g(Z[j])} (a coil wire through the grid?)")
@@ -168,8 +179,10 @@ def cylindrical_potential(R: Any, phi: Any, Z: Any, *, nfp: int = 1, A: Any = No
     grid = "×".join(map(str, (R.size, phi.size, Z.size)))
     desc = (f"{degree_name(degree)} spline of A on a {grid} (u = R²/2, φ, Z) grid"
             + (" (A integrated from B)" if how == "B" else ""))
+    if keep is not None:
+        desc += f" (on the {int(keep.sum())} of {keep.size} nodes of a domain)"
     pot = SplinePotential.from_samples((u, phi, Z), cov, periodic=(False, T, False),
-                                       degree=degree, description=desc)
+                                       degree=degree, description=desc, mask=keep)
     #: the (R, φ, Z) box of the grid (for messages)
     pot.cylindrical_box = ((float(R[0]), float(R[-1])), (float(phi[0]), float(phi[0] + T)),
                            (float(Z[0]), float(Z[-1])))

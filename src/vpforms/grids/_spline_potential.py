@@ -143,8 +143,9 @@ class SplinePotential(VectorPotential):
     @classmethod
     def from_samples(cls, nodes: Sequence[Any], values: Any,
                      periodic: Sequence[bool | float | None] = (False, True, False),
-                     degree: int = 3, description: str = "") -> SplinePotential:
-        """The interpolating splines of samples A_i at the tensor grid ``nodes``.
+                     degree: int = 3, description: str = "", mask: Any = None) -> SplinePotential:
+        """The interpolating splines of samples A_i at the tensor grid ``nodes`` (where ``mask``
+        is given, on its kept nodes only: :meth:`TensorSpline.interpolate`).
 
         ``values`` has shape (3, n₁, n₂, n₃) (covariant components); ``periodic`` per axis as in
         :meth:`TensorSpline.interpolate` (True: uniform nodes, one period without the endpoint;
@@ -153,7 +154,7 @@ class SplinePotential(VectorPotential):
         shape = tuple(np.size(n) for n in nodes)
         if v.shape != (3, *shape):
             raise ValueError(f"values must have shape (3, *grid) = {(3, *shape)}; got {v.shape}")
-        splines = [TensorSpline.interpolate(nodes, v[i], periodic, degree) for i in range(3)]
+        splines = [TensorSpline.interpolate(nodes, v[i], periodic, degree, mask) for i in range(3)]
         # the three components share their knot vectors (one object each: one constant under jit)
         for s in splines[1:]:
             s.knots, s.cells = splines[0].knots, splines[0].cells

@@ -35,6 +35,7 @@ import numpy as np
 from .._vecpot import SumPotential, curl_of
 from ..coils import CoilSet, circular_tokamak, l2_stellarator
 from ..coils._ring import CircularRingPotential
+from ..domains import ToroidalDomain
 from ..grids import cylindrical_potential
 from ..toroidal import cartesian_field, to_toroidal, toroidal_field
 from ._base import Problem
@@ -45,19 +46,26 @@ SOURCE = ("vacuum field of filamentary coils (Hanson & Hirshman, Phys. Plasmas 9
           "A splined on a grid, B = curl A; coil sets built in vpforms.coils.library")
 
 
-def _sample_A(coils, R, phi, Z) -> np.ndarray:
-    """Physical cylindrical (A_R, A_φ, A_Z) of the coils at the grid nodes, shape (3, nR, nφ, nZ)."""
+def _sample_A(coils, R, phi, Z, mask=None) -> np.ndarray:
+    """Physical cylindrical (A_R, A_φ, A_Z) of the coils at the grid nodes, shape (3, nR, nφ, nZ);
+    where ``mask`` is given, at its kept nodes only (NaN elsewhere)."""
     RR, PP, ZZ = np.meshgrid(R, phi, Z, indexing="ij")
-    xyz = np.stack([RR * np.cos(PP), RR * np.sin(PP), ZZ], axis=-1).reshape(-1, 3)
-    A = np.asarray(coils.A(xyz)).reshape(RR.shape + (3,))
+    keep = np.ones(RR.shape, bool) if mask is None else np.asarray(mask, bool)
+    xyz = np.stack([RR[keep] * np.cos(PP[keep]), RR[keep] * np.sin(PP[keep]), ZZ[keep]], axis=-1)
+    A = np.full(RR.shape + (3,), np.nan)
+    A[keep] = np.asarray(coils.A(xyz))
     c, s = np.cos(PP), np.sin(PP)
     return np.stack([A[..., 0] * c + A[..., 1] * s, -A[..., 0] * s + A[..., 1] * c, A[..., 2]])
 
 
-def _spline_error(field, coils, extra_B, box_R, box_Z, nfp, seed=0, n=400) -> float:
-    """max |B_spline − B_coils| / max |B_coils| at seeded random points of the box."""
+def _spline_error(field, coils, extra_B, box_R, box_Z, nfp, seed=0, n=400, domain=None) -> float:
+    """max |B_spline − B_coils| / max |B_coils| at seeded random points of the box (of the
+    ``domain`` where one is given: uniform in its volume)."""
     rng = np.random.default_rng(seed)
-    pts = np.c_[rng.uniform(*box_R, n), rng.uniform(0, 2 * np.pi / nfp, n), rng.uniform(*box_Z, n)]
+    if domain is None:
+        pts = np.c_[rng.uniform(*box_R, n), rng.uniform(0, 2 * np.pi / nfp, n), rng.uniform(*box_Z, n)]
+    else:
+        pts = domain.sample(n, seed)
     xyz = pts[:, [0, 1, 2]].copy()
     xyz[:, 0], xyz[:, 1] = pts[:, 0] * np.cos(pts[:, 1]), pts[:, 0] * np.sin(pts[:, 1])
     B = np.asarray(coils.B(xyz)) + (0 if extra_B is None else extra_B(xyz))
@@ -71,20 +79,40 @@ def _x0(R_axis: float, offsets) -> np.ndarray:
 
 
 def spline_coil_field(coils: CoilSet, R: tuple, Z: tuple, *, n_R: int = 40, n_phi: int = 32, n_Z: int = 40,
-                      name: str = "coils", margin: float = 0.02) -> tuple:
+                      name: str = "coils", margin: float = 0.02, domain: ToroidalDomain | None = None,
+                      pad: int = 2) -> tuple:
     """The field lines of a coil set in (u = R²/2, φ, Z): the coils' vector potential sampled on an
     n_R × n_phi × n_Z grid of the (R, Z) box over one field period and splined (exact
     antiderivatives, B = ∇×A exactly divergence free); returns (field, spline_error) with
     spline_error = max|B_spline − B_coils|/max|B_coils| at 400 seeded points of the box less
-    ``margin`` (in the units of R and Z) on each side."""
+    ``margin`` (in the units of R and Z) on each side.
+
+    With a ``domain`` (:class:`vpforms.domains.ToroidalDomain`, inside the box): a grid that
+    follows it — A is sampled and fitted only on the nodes of the cells that meet the domain
+    (dilated by ``pad`` nodes: :meth:`~vpforms.domains.ToroidalDomain.node_mask`), so coil wires
+    elsewhere in the box never enter the fit; the field's :attr:`~vpforms.Field.domain` is the
+    domain (its potentials are checked there, starting points must lie in it; a line that leaves
+    it meets NaN cells, a non-finite step — trace with :func:`vpforms.fieldlines.trace_to_wall`
+    and the domain to stop lines at it), and spline_error is measured at 400 points of the
+    domain."""
     nfp = coils.nfp
     Rn, Zn = np.linspace(*R, n_R), np.linspace(*Z, n_Z)
     phin = 2 * np.pi / nfp * np.arange(n_phi) / n_phi
-    pot, _ = cylindrical_potential(Rn, phin, Zn, nfp=nfp, A=_sample_A(coils, Rn, phin, Zn), source=f"{name} coils")
-    field = toroidal_field(pot, pot.grid_box, nfp=nfp, name=name, origin=pot.center)
+    mask = None
+    if domain is not None:
+        domain.check_within(R, Z, f"the grid of {name}")
+        mask = domain.node_mask(Rn, phin, Zn, pad=pad)
+    pot, _ = cylindrical_potential(Rn, phin, Zn, nfp=nfp, A=_sample_A(coils, Rn, phin, Zn, mask),
+                                   source=f"{name} coils", mask=mask)
+    field = toroidal_field(pot, pot.grid_box, nfp=nfp, name=name, origin=pot.center, domain=domain)
+    # field.inside stays the grid's box test (native kernels emit that one): a step onto a cell
+    # outside the domain's grid is non-finite (NaN coefficients), a reported failure; lines are
+    # stopped at the domain itself by trace_to_wall(…, domain)
     field.domain_check, field.inside = _covers(pot), pot.inside
+    if domain is not None:
+        field.domain_check = lambda points: domain.check_points(points, toroidal=True)
     return field, _spline_error(field, coils, None, (R[0] + margin, R[1] - margin), (Z[0] + margin, Z[1] - margin),
-                                nfp)
+                                nfp, domain=domain)
 
 
 def make_stellarator(*, n_R: int = 40, n_phi: int = 32, n_Z: int = 40, R: tuple = (0.80, 1.18),
