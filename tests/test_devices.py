@@ -158,7 +158,92 @@ def test_w7x_problem_traces_the_coils_directly():
     np.testing.assert_allclose(B, np.asarray(coils.B(from_toroidal(x))), atol=1e-12 * np.abs(B).max())
     assert p.axis_guess == pytest.approx(tuple(device_axis("w7x")(0.0)), abs=1e-12)
     assert p.periodic == (None, pytest.approx(2 * np.pi / 5), None)
+    from vpforms.coils import device_domain
+
+    assert p.domain is device_domain("w7x")
+    p.domain.check_within(np.sqrt(2 * np.asarray(p.box[0])), p.box[2], what="the problem's box")
     for pts in (p.x0, x):
         R = np.sqrt(2 * pts[:, 0])
         assert np.all(pts[:, 1:] == 0) and np.all(R > p.axis_guess[0])
         assert np.all((pts[:, 0] > p.box[0][0]) & (pts[:, 0] < p.box[0][1]))
+        assert p.domain.contains(np.c_[R, pts[:, 1], pts[:, 2]]).all()
+
+
+# ------------------------------------------------------------------------------------------------
+# The default domains (issue #38 item 3): a VMEC-form boundary that follows the plasma
+# ------------------------------------------------------------------------------------------------
+def _cylindrical(xyz: np.ndarray) -> np.ndarray:
+    return np.c_[np.hypot(xyz[:, 0], xyz[:, 1]), np.arctan2(xyz[:, 1], xyz[:, 0]), xyz[:, 2]]
+
+
+@pytest.mark.parametrize("name", DEVICES)
+def test_domain_holds_the_axis_and_the_start_points(name):
+    """The axis at 24 angles over the whole torus and the sampler's outermost start point
+    (R_axis + 0.95·edge, φ = 0, Z = 0) are inside the default domain, with room: their signed
+    distance is negative by more than the polygons' own error."""
+    from vpforms.coils import device_domain
+    from vpforms.problems.devices import EDGE
+
+    dom = device_domain(name)
+    axis = device_axis(name)
+    phi = np.linspace(0, 2 * np.pi, 24, endpoint=False)
+    R, Z = axis(phi)
+    R0 = float(axis(0.0)[0])
+    pts = np.r_[np.c_[R, phi, Z], [[R0 + 0.95 * EDGE[name], 0.0, 0.0]]]
+    assert dom.contains(pts).all()
+    assert np.asarray(dom.signed_distance(pts[:, 0], pts[:, 1], pts[:, 2])).max() < -dom.fourier_error()
+
+
+@pytest.mark.parametrize("name", DEVICES)
+def test_domain_is_stellarator_symmetric(name):
+    """(R, φ, Z) is inside exactly when (R, −φ, −Z) is, at 2 000 points of the domain's (R, Z)
+    bounds (both answers occur)."""
+    from vpforms.coils import device_domain
+
+    dom = device_domain(name)
+    rng = np.random.default_rng(3)
+    r0, r1, z0, z1 = dom.bounds
+    p = np.c_[rng.uniform(r0, r1, 2000), rng.uniform(0, 2 * np.pi, 2000), rng.uniform(z0, z1, 2000)]
+    d = np.asarray(dom.signed_distance(p[:, 0], p[:, 1], p[:, 2]))
+    mirrored = np.asarray(dom.signed_distance(p[:, 0], -p[:, 1], -p[:, 2]))
+    clear = np.abs(d) > 2 * dom.fourier_error()  # points closer to the boundary than its own error may flip
+    assert (d[clear] < 0).any() and (d[clear] > 0).any()
+    np.testing.assert_array_equal(d[clear] < 0, mirrored[clear] < 0)
+
+
+@pytest.mark.parametrize("name", DEVICES)
+def test_coil_filaments_lie_outside_the_domain_at_the_stored_distance(name):
+    """Every coil filament point — the coils without current too (W7-X's planar coils), at the points
+    per coil the export script used — is outside the default domain, and the smallest in-plane
+    distance vpforms' signed_distance finds is the one simsopt's side stored, within the
+    polygon's discretisation error (the domain's fourier_error plus the export's 2048-vertex one)."""
+    from vpforms.coils import device_domain
+
+    data = device_data(name)
+    stored = data["domain"]
+    dom = device_domain(name)
+    everything = device(name, stored["coil_points_per_coil"], currents=[1.0] * len(data["base_curves"]))
+    pts = _cylindrical(np.concatenate([c.points for c in everything]))
+    assert not dom.contains(pts).any()
+    d = np.asarray(dom.signed_distance(pts[:, 0], pts[:, 1], pts[:, 2]))
+    tol = dom.fourier_error(n_check=5000) + 1e-4
+    assert abs(d.min() - stored["min_distance_to_coils_m"]) < tol, (d.min(), stored["min_distance_to_coils_m"], tol)
+    assert d.min() >= (0.1 if name == "w7x" else 0.05)
+    assert stored["min_distance_to_coils_3d_m"] <= stored["min_distance_to_coils_m"] + tol
+
+
+@pytest.mark.parametrize("name", DEVICES)
+def test_domain_fits_the_problem_box(name):
+    """The problem's (u, φ, Z) box, read back as R = √(2u), holds the default domain; the domain
+    is smaller than the box on every side (by BOX_MARGIN of its R extent)."""
+    from vpforms.coils import device_domain
+    from vpforms.problems.devices import _box
+
+    dom = device_domain(name)
+    box = _box(dom, dom.nfp)
+    R_range, Z_range = np.sqrt(2 * np.asarray(box[0])), box[2]
+    dom.check_within(R_range, Z_range, what=f"{name}'s box")
+    r0, r1, z0, z1 = dom.bounds
+    assert R_range[0] < r0 and R_range[1] > r1 and Z_range[0] < z0 and Z_range[1] > z1
+    with pytest.raises(ValueError, match="leaves the inner box"):
+        dom.check_within((r0 + 0.01, r1), Z_range, what="the inner box")

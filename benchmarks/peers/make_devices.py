@@ -181,12 +181,14 @@ def export(name: str, seed: int) -> dict:
 # ------------------------------------------------------------------------------------------------
 #: per device (m, outboard of the axis on the midplane of φ = 0): ``lcfs`` the start of the line just
 #: inside the last closed flux surface; ``contain`` the starts of lines beyond it (W7-X: the 5/5
-#: island chain) whose points the domain must hold; ``margin`` the outward offset
+#: island chain) whose points the domain must hold; ``margin`` the smallest outward offset (the one
+#: used is at least the farthest contained point beyond the fitted surface plus CLEARANCE)
 DOMAIN = {
     "w7x": {"lcfs": 0.24, "contain": (0.26, 0.27, 0.30), "margin": 0.15},
     "ncsx": {"lcfs": 0.075, "contain": (), "margin": 0.05},
     "hsx": {"lcfs": 0.07, "contain": (), "margin": 0.02},
 }
+CLEARANCE = 0.02       # m between the contained lines and the domain's boundary
 PLANES = 24            # φ-planes per field period where the Poincaré points are collected
 TRANSITS = 100         # toroidal transits of each traced line
 TOL = 1e-10            # compute_fieldlines' tolerance (direct BiotSavart)
@@ -340,13 +342,13 @@ def default_domain(name: str, bs, axis: dict) -> dict:
     phi = np.remainder(phi_t, 2 * np.pi / nfp)
     lcfs = fit_boundary(theta, phi, R, Z, nfp)
     fit_error = float(np.abs(boundary_distance(lcfs, R, phi, Z)).max())
-    coeffs, offset_error = offset_boundary(lcfs, spec["margin"], nfp)
+    beyond = [float(boundary_distance(lcfs, pr, np.remainder(pt, 2 * np.pi / nfp), pz).max()) for pt, pr, pz in lines[1:]]
+    # the margin: the device's, or the farthest contained point beyond the surface + CLEARANCE, in cm
+    margin = max(spec["margin"], float(np.ceil((max(beyond, default=0.0) + CLEARANCE) * 100) / 100))
+    coeffs, offset_error = offset_boundary(lcfs, margin, nfp)
     coeffs = tuple(np.round(c, 10) for c in coeffs[:2]) + coeffs[2:]
-    outside = []
-    for pt, pr, pz in lines[1:]:
-        pp = np.remainder(pt, 2 * np.pi / nfp)
-        outside.append((float(boundary_distance(lcfs, pr, pp, pz).max()),
-                        float(boundary_distance(coeffs, pr, pp, pz).max())))
+    outside = [(b, float(boundary_distance(coeffs, pr, np.remainder(pt, 2 * np.pi / nfp), pz).max()))
+               for b, (pt, pr, pz) in zip(beyond, lines[1:])]
     per_coil = 4 * len(get_data(name)[0][0].quadpoints)
     xyz = all_coil_points(name, per_coil)
     d_plane = boundary_distance(coeffs, np.hypot(xyz[:, 0], xyz[:, 1]), np.arctan2(xyz[:, 1], xyz[:, 0]), xyz[:, 2])
@@ -354,7 +356,8 @@ def default_domain(name: str, bs, axis: dict) -> dict:
     lcfs_d3 = distance_3d(lcfs, nfp, xyz)
     print(f"{name}: {len(starts)} lines × {TRANSITS} transits traced in {seconds:.1f} s; LCFS fit error "
           f"{fit_error:.2e} m over {R.size} points; lines beyond it up to {max([o[0] for o in outside], default=0):.3f} m "
-          f"outside, {max([o[1] for o in outside], default=-1):.3f} m from the domain; margin {spec['margin']} m (refit {offset_error:.1e} m); coils {d_plane.min():.3f} m "
+          f"outside, {max([o[1] for o in outside], default=-1):.3f} m from the domain; margin {margin} m "
+          f"(refit {offset_error:.1e} m); coils {d_plane.min():.3f} m "
           f"in-plane / {d3:.3f} m 3-D from the domain ({lcfs_d3:.3f} m 3-D from the LCFS fit)")
     if d_plane.min() <= 0 or d3 <= 0:
         raise RuntimeError(f"{name}: a coil filament is inside the domain")
@@ -365,7 +368,7 @@ def default_domain(name: str, bs, axis: dict) -> dict:
                    "xn including nfp (VMEC's convention); vpforms.coils.device_domain",
         "rmnc": coeffs[0].tolist(), "zmns": coeffs[1].tolist(),
         "xm": coeffs[2].astype(int).tolist(), "xn": coeffs[3].astype(int).tolist(), "nfp": nfp,
-        "margin_m": spec["margin"],
+        "margin_m": margin,
         "how": (f"simsopt compute_fieldlines on the direct BiotSavart (tol {TOL:g}, {TRANSITS} transits) from "
                 f"(R_axis + {spec['lcfs']} m, φ = 0, Z = 0), just inside the last closed flux surface; its Poincaré "
                 f"points on {PLANES} planes per period (periods folded), θ = ι·φ its straight-field-line angle (ι: "

@@ -16,7 +16,7 @@ differentiable: ∇×A = B and ∇·B = 0 hold to rounding for closed coils.
 * :class:`Coil`, :class:`CoilSet` — coils and sets (``B(x)``, ``A(x)``, ``from_symmetry``);
 * :func:`read_makegrid`, :func:`write_makegrid`, :class:`CoilFileError` — MAKEGRID ``coils.*`` files;
 * :func:`circular_tokamak`, :func:`l2_stellarator` — two coil sets with closed flux surfaces;
-* :func:`device`, :func:`device_axis`, :func:`device_names` — real stellarators by name (W7-X, NCSX,
+* :func:`device`, :func:`device_axis`, :func:`device_domain`, :func:`device_names` — real stellarators by name (W7-X, NCSX,
   HSX) from the coil data simsopt ships (:mod:`vpforms.coils.devices`).
 
 ``CoilSet.A`` is a Cartesian vector potential of a point (3,), and :class:`CoilPotential` the same
@@ -28,7 +28,7 @@ integrate the field lines of a coil set directly with the volume-preserving meth
 
 from ._coilset import Coil, CoilPotential, CoilSet
 from ._segments import MU0
-from .devices import DeviceAxis, device, device_axis, device_data, device_names
+from .devices import DeviceAxis, device, device_axis, device_data, device_domain, device_names
 from .library import circular_tokamak, l2_stellarator
 from .makegrid import CoilFileError, read_makegrid, write_makegrid
 
@@ -43,6 +43,7 @@ __all__ = [
     "device",
     "device_axis",
     "device_data",
+    "device_domain",
     "device_names",
     "l2_stellarator",
     "read_makegrid",

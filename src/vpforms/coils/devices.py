@@ -17,7 +17,12 @@ package; no simsopt dependency). Each file holds, for one device:
   (its zs are shifted by one mode and negated; the angle between B and that curve reaches 46°): the
   file holds the aligned curve (0.05° off B) and simsopt's as ``axis_simsopt``;
 * a cross-check: simsopt's ``BiotSavart`` B of the full coil set at 20 points near the axis, and
-  simsopt's own quadrature error there (≤ 8e-7).
+  simsopt's own quadrature error there (≤ 8e-7);
+* the default domain (``domain``): a boundary in VMEC's form R = Σ rmnc cos(mθ − nφ),
+  Z = Σ zmns sin(mθ − nφ) fitted to the Poincaré points of a field line just inside the last closed
+  flux surface (simsopt's tracer on its direct ``BiotSavart``), moved outward by a margin (W7-X: to
+  hold the 5/5 island chain), with its measured distance to every coil filament
+  (:func:`device_domain`; docs/devices.md).
 
 :func:`device` evaluates every base curve at n points θ_k = k/n (default simsopt's n) as a closed
 polyline — the straight segments between consecutive points — repeated over the nfp periods and
@@ -38,9 +43,10 @@ from typing import Any
 
 import numpy as np
 
+from ..domains import ToroidalDomain
 from ._coilset import Coil, CoilSet, _finite_scalar
 
-__all__ = ["DeviceAxis", "device", "device_axis", "device_data", "device_names"]
+__all__ = ["DeviceAxis", "device", "device_axis", "device_data", "device_domain", "device_names"]
 
 _DEVICES = ("w7x", "ncsx", "hsx")
 
@@ -168,3 +174,22 @@ def device_axis(name: str) -> DeviceAxis:
     rc.setflags(write=False)
     zs.setflags(write=False)
     return DeviceAxis(rc, zs, int(a["nfp"]), a.get("note", ""))
+
+
+def device_domain(name: str, n_theta: int = 128, n_phi: int = 32) -> ToroidalDomain:
+    """The device's default domain: the stored boundary R = Σ rmnc cos(m θ − n φ), Z = Σ zmns
+    sin(m θ − n φ) (VMEC's convention, xn including nfp) — the last closed flux surface fitted to a
+    field line's Poincaré points and moved outward by ``margin_m`` (``device_data(name)["domain"]``
+    says how) — as a :class:`~vpforms.domains.ToroidalDomain` of ``n_theta`` vertices on ``n_phi``
+    planes per field period (:meth:`~vpforms.domains.ToroidalDomain.from_fourier`; the polygons lie
+    within :meth:`~vpforms.domains.ToroidalDomain.fourier_error` of the Fourier surface: about 1 mm at
+    the defaults, 0.3 mm at 256 × 64). Every coil filament lies outside it, ``min_distance_to_coils_m``
+    from it in its plane. Built once per (device, n_theta, n_phi) and shared (a domain is immutable)."""
+    return _domain(_key(name), int(n_theta), int(n_phi))
+
+
+@lru_cache(maxsize=None)
+def _domain(key: str, n_theta: int, n_phi: int) -> ToroidalDomain:
+    d = device_data(key)["domain"]
+    return ToroidalDomain.from_fourier(d["rmnc"], d["zmns"], d["xm"], d["xn"], nfp=int(d["nfp"]),
+                                       n_theta=n_theta, n_phi=n_phi, name=f"{key} default domain")

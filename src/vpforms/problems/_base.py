@@ -47,6 +47,8 @@ class Problem:
         one line.
     wall:
         the physical domain, an (R, Z) polygon (:class:`vpforms.fieldlines.Wall`), or None.
+    domain:
+        the default domain that follows the plasma (:class:`vpforms.domains.ToroidalDomain`), or None.
     """
 
     name: str
@@ -68,6 +70,10 @@ class Problem:
     #: where the problem has one: ``trace_to_wall(method, x0, h, n, problem.wall)`` stops the lines
     #: that leave it with status ``left_domain`` (#21 item 4); None where there is none
     wall: Any = None
+    #: for toroidal fields whose plasma is not a surface of revolution (the real stellarators,
+    #: :mod:`vpforms.problems.devices`): the default domain, a :class:`vpforms.domains.ToroidalDomain`
+    #: (``trace_to_wall(method, x0, h, n, problem.domain)``); None where there is none
+    domain: Any = None
 
     def initial_conditions(self, n: int, seed: int = 0) -> np.ndarray:
         """n seeded initial conditions in the problem's natural region, shape (n, 3)."""

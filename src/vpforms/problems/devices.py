@@ -5,12 +5,14 @@ quadrature points, ``n_points`` per coil to refine), and the field is their Hans
 in the toroidal coordinates x = (u = R²/2, φ, Z) of unit Jacobian (:func:`vpforms.toroidal.toroidal_field`
 of the coil set): no grid, exactly divergence free, periodic in φ with period 2π/nfp.
 
-* ``box`` — a rectangle in (R, Z) (as u = R²/2) around the plasma at every φ: the range of the
-  magnetic axis R(φ), Z(φ) over a period (:func:`vpforms.coils.device_axis`) widened by the
-  device's ``margin``. The cross-sections turn from a bean to a triangle over a period and the
-  coils hug them, so a rectangle that holds the plasma at every φ also holds coil filaments —
-  for W7-X certainly: the box is where samples and plots go, not a wall. A domain that follows
-  the plasma is issue #38's ``vpforms.domains``.
+* ``domain`` — the device's default domain (:func:`vpforms.coils.device_domain`): a VMEC-form
+  boundary fitted to the last closed flux surface (simsopt's field-line tracer) and moved outward
+  by a margin (W7-X: to hold the 5/5 island chain), clear of every coil filament
+  (``trace_to_wall(method, x0, h, n, problem.domain)`` stops the lines that leave it);
+* ``box`` — the domain's (R, Z) bounds over a period widened by 5 % of its R extent (as u = R²/2).
+  The cross-sections turn from a bean to a triangle over a period and the coils hug them, so a
+  rectangle that holds the plasma at every φ still holds coil filaments — for W7-X certainly: the
+  box is where samples and plots go, the domain is the wall.
 * ``axis_guess`` — the axis point (R, Z) on φ = 0 (from the axis data).
 * ``x0`` — five points on the outboard midplane of φ = 0 (Z = 0) at 10 %, 30 %, 50 %, 70 %, 90 % of
   the distance ``edge`` from the axis to the outermost closed surface there; the sampler draws
@@ -23,9 +25,8 @@ of the coil set): no grid, exactly divergence free, periodic in φ with period 2
 
 Known limit (issue #38): on W7-X's box ``vpforms.scheme(problem.field, "SE+SE")`` refuses the field
 with a ``PotentialError`` — the SE pair built by the Gauss–Legendre gauge integral of A does not
-reproduce B (relative error 15.8 at R = 5.46 m, φ = 0.99, Z = 0.98 m, next to a coil filament) —
-after about 5 minutes of checking (1.1 GB peak). The field itself (``problem.field(x)``) is exact;
-tracing needs a domain that keeps away from the coils.
+reproduce B next to a coil filament inside the box — after minutes of checking. The field itself
+(``problem.field(x)``) is exact; tracing needs methods restricted to ``problem.domain``.
 """
 
 from __future__ import annotations
@@ -34,7 +35,7 @@ from functools import lru_cache, partial
 
 import numpy as np
 
-from ..coils import device, device_axis, device_data
+from ..coils import device, device_axis, device_data, device_domain
 from ..toroidal import box_from_cylindrical, to_toroidal, toroidal_field
 from ._base import Problem
 
@@ -44,20 +45,19 @@ SOURCE = ("vacuum field of the device's filamentary coils as shipped by simsopt 
           "benchmarks/peers/make_devices.py), Hanson–Hirshman segments traced directly, no grid")
 
 #: per device: the distance from the axis to the outermost closed surface on the outboard midplane of
-#: φ = 0, and the margin around the axis' (R, Z) range that makes the box (m; module docstring)
-_GEOMETRY = {
-    "w7x": {"edge": 0.25, "margin": 1.0},
-    "ncsx": {"edge": 0.075, "margin": 0.5},
-    "hsx": {"edge": 0.07, "margin": 0.3},
-}
+#: φ = 0 (m; module docstring)
+EDGE = {"w7x": 0.25, "ncsx": 0.075, "hsx": 0.07}
+
+#: the box's margin around the domain's (R, Z) bounds, as a fraction of the domain's R extent
+BOX_MARGIN = 0.05
 
 
-def _box(axis, nfp: int, margin: float) -> tuple:
-    """The (u, φ, Z) box: the axis' R and Z ranges over a period widened by ``margin``, φ over one period."""
-    phi = np.linspace(0, 2 * np.pi / nfp, 181)
-    R, Z = axis(phi)
-    return box_from_cylindrical((R.min() - margin, R.max() + margin), (0.0, 2 * np.pi / nfp),
-                                (Z.min() - margin, Z.max() + margin))
+def _box(domain, nfp: int) -> tuple:
+    """The (u, φ, Z) box: the domain's R and Z bounds widened by BOX_MARGIN of its R extent, φ over
+    one period."""
+    r0, r1, z0, z1 = domain.bounds
+    pad = BOX_MARGIN * (r1 - r0)
+    return box_from_cylindrical((r0 - pad, r1 + pad), (0.0, 2 * np.pi / nfp), (z0 - pad, z1 + pad))
 
 
 def _midplane(R_axis: float, offsets) -> np.ndarray:
@@ -69,13 +69,12 @@ def make(name: str, *, n_points: int | None = None) -> Problem:
     """The field lines of the device ``name`` (``"w7x"``, ``"ncsx"``, ``"hsx"``) traced on its coils
     with ``n_points`` points per coil (default simsopt's quadrature count; the field then differs from
     the smooth coils' by ≈ 4e-4 (W7-X), 2e-4 (NCSX), 4e-5 (HSX) of max |B|, falling as 1/n_points²).
-    Module docstring for the box, axis guess and initial conditions."""
+    Module docstring for the domain, box, axis guess and initial conditions."""
     coils = device(name, n_points)
     key = device_data(name)["name"]  # the canonical name ("W7-X" → "w7x")
-    axis, geo = device_axis(key), _GEOMETRY[key]
+    axis, domain, edge = device_axis(key), device_domain(key), EDGE[key]
     R0, Z0 = (float(v) for v in axis(0.0))
-    edge = geo["edge"]
-    field = toroidal_field(coils, _box(axis, coils.nfp, geo["margin"]), name=key)
+    field = toroidal_field(coils, _box(domain, coils.nfp), name=key)
     n_seg = int(coils.segments()[0].shape[0])
     return Problem(
         name=key, field=field,
@@ -85,7 +84,7 @@ def make(name: str, *, n_points: int | None = None) -> Problem:
         periodic=(None, 2 * np.pi / coils.nfp, None), box=field.box,
         description=f"{key} coils ({len(coils)} coils, {n_seg} segments): field lines in (u = R²/2, φ, Z)",
         sampler=partial(_sample_midplane, R0, 0.05 * edge, 0.95 * edge),
-        axis_guess=(R0, Z0),
+        axis_guess=(R0, Z0), domain=domain,
     )
 
 
