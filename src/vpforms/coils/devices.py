@@ -182,8 +182,8 @@ def device_domain(name: str, n_theta: int = 128, n_phi: int = 32) -> ToroidalDom
     field line's Poincaré points and moved outward by ``margin_m`` (``device_data(name)["domain"]``
     says how) — as a :class:`~vpforms.domains.ToroidalDomain` of ``n_theta`` vertices on ``n_phi``
     planes per field period (:meth:`~vpforms.domains.ToroidalDomain.from_fourier`; the polygons lie
-    within :meth:`~vpforms.domains.ToroidalDomain.fourier_error` of the Fourier surface: about 1 mm at
-    the defaults, 0.3 mm at 256 × 64). Every coil filament lies outside it, ``min_distance_to_coils_m``
+    within :meth:`~vpforms.domains.ToroidalDomain.fourier_error` of the Fourier surface: 1–4 mm at
+    the defaults, 0.3–1.1 mm at 256 × 64). Every coil filament lies outside it, ``min_distance_to_coils_m``
     from it in its plane. Built once per (device, n_theta, n_phi) and shared (a domain is immutable)."""
     return _domain(_key(name), int(n_theta), int(n_phi))
 
