@@ -18,6 +18,7 @@ import vpforms
 from vpforms import RESULTS, distributed, problems
 from vpforms.backends import NativeUnavailableError
 from vpforms.backends.native.walls import WallRun
+from vpforms.domains import ToroidalDomain
 from vpforms.fieldlines import Wall, WallHits, trace_to_wall
 
 _OK, _WHY = vpforms.native.available()
@@ -80,8 +81,8 @@ def test_recovered_steps_stop_at_the_wall_and_accumulate():
     step n, outside point kept); the others add the trapezoid |h|(|B(x)| + |B(X)|)/2 and the wrapped
     angle increment, exactly, and ask for a full test at the next step."""
     wall = Wall.box(0.5, 1.5, -1.0, 1.0)
-    run = WallRun(4, (wall._Rv, wall._Zv), 1e-12, False,
-                  lambda R, Z: wall.contains(np.stack([R, Z], 1)), lambda X: np.full(X.shape[0], 2.0), -0.25)
+    run = WallRun(4, ToroidalDomain.axisymmetric(wall), 1e-12, False,
+                  lambda R, phi, Z: wall.contains(np.stack([R, Z], 1)), lambda X: np.full(X.shape[0], 2.0), -0.25)
     run.s[:] = 3.0
     run.phi[:] = [0.0, 3.0, 0.0, 0.0]
     run.mg[:] = 0.7
