@@ -23,10 +23,13 @@ of the coil set): no grid, exactly divergence free, periodic in φ with period 2
   wide band and leave past 0.14 m; W7-X 0.25 m: closed curves to 0.24 m, the lines at 0.27 and
   0.30 m lie in the 5/5 island chain, R ∈ [6.20, 6.25] m on the section, as issue #38 reports).
 
-Known limit (issue #38): on W7-X's box ``vpforms.scheme(problem.field, "SE+SE")`` refuses the field
-with a ``PotentialError`` — the SE pair built by the Gauss–Legendre gauge integral of A does not
-reproduce B next to a coil filament inside the box — after minutes of checking. The field itself
-(``problem.field(x)``) is exact; tracing needs methods restricted to ``problem.domain``.
+The field's own :attr:`~vpforms.Field.domain` is the problem's domain: its construction checks and
+the check of a method's potentials sample the domain, not the box (on W7-X's box,
+``vpforms.scheme`` refused the field: the SE pair built by the Gauss–Legendre gauge integral of A
+does not reproduce B next to a coil filament inside the box). That check reconstructs B from
+second derivatives at 512 points × 32 Gauss nodes of 4 800 segments: minutes (memory bounded);
+whether the quadrature pair passes it on the whole default domain, whose edge is 0.12 m from the
+coils, is not yet measured (issue #38).
 """
 
 from __future__ import annotations
@@ -74,7 +77,7 @@ def make(name: str, *, n_points: int | None = None) -> Problem:
     key = device_data(name)["name"]  # the canonical name ("W7-X" → "w7x")
     axis, domain, edge = device_axis(key), device_domain(key), EDGE[key]
     R0, Z0 = (float(v) for v in axis(0.0))
-    field = toroidal_field(coils, _box(domain, coils.nfp), name=key)
+    field = toroidal_field(coils, _box(domain, coils.nfp), name=key, domain=domain)
     n_seg = int(coils.segments()[0].shape[0])
     return Problem(
         name=key, field=field,
