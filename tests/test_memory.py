@@ -4,7 +4,7 @@ A child process builds a synthetic coil set of 10⁵ segments (the l = 2 stellar
 their polylines refined) and runs what evaluates coils: B and A at many points, the derivatives an
 outer vmap over a potential check's worth of points takes (reverse mode through the gauge
 integral's χ, then forward), a grid of A sampled on the domain's nodes, a method on that grid and a
-few steps. Its peak resident memory (getrusage, the kernel's own count) must stay ≤ 2 GB, where
+few steps. Its peak resident memory (the kernel's VmHWM of the child's own memory map) must stay ≤ 2 GB, where
 holding the (points × segments) intermediates at once would take ~10–100 GB.
 """
 
@@ -43,7 +43,12 @@ m = vpforms.scheme(field, "SE+SE")
 sol = vpforms.integrate(m, np.array([[0.5 * 1.03**2, 0.0, 0.0]]), 0.01, 3, progress=False, backend="jax")
 out["failed"] = int(sol.n_failed)
 out["seconds"] = time.perf_counter() - t
-out["peak_MB"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+# VmHWM: the peak of this process's own memory map. (ru_maxrss would also count the parent's
+# resident set at the fork before exec: Linux keeps it across execve — a pytest worker's GBs.)
+try:
+    out["peak_MB"] = next(int(l.split()[1]) for l in open("/proc/self/status") if l.startswith("VmHWM:")) / 1024
+except OSError:
+    out["peak_MB"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 print("@@" + json.dumps(out))
 """
 

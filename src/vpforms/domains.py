@@ -20,7 +20,7 @@ Z = Σ zmns sin(mθ − nφ)), :meth:`ToroidalDomain.tube` (a circle of given ra
 R₀(φ), Z₀(φ) in each plane), :meth:`ToroidalDomain.from_polygons` (wall polygons on planes) and
 :meth:`ToroidalDomain.axisymmetric` (one :class:`~vpforms.fieldlines.Wall`, the same at every φ).
 Every boundary is checked: closed, simple (no self-intersection) on its planes and half-way between
-them, R > 0; :meth:`~ToroidalDomain.check_within` says whether it fits a grid box.
+them, R ≥ 0; :meth:`~ToroidalDomain.check_within` says whether it fits a grid box.
 """
 
 from __future__ import annotations
@@ -129,7 +129,7 @@ class ToroidalDomain:
     arrays ``R``, ``Z`` of shape (P, n) (open polygons, vertex i of each plane corresponding).
 
     Every boundary is validated (a :class:`ValueError` naming the plane and the vertices): each
-    polygon simple (no crossing or touching edges), of positive area, in R > 0, on the planes and
+    polygon simple (no crossing or touching edges), of positive area, in R ≥ 0, on the planes and
     half-way between consecutive planes (where the interpolation could fold).
 
     :meth:`inside`, :meth:`signed_distance` are JAX (broadcasting (R, φ, Z)), :meth:`contains` the
@@ -188,10 +188,6 @@ class ToroidalDomain:
             except ValueError as e:
                 msg = str(e).replace("Wall polygon", "the boundary").replace("Wall ", "the boundary ")
                 raise ValueError(f"domain {self.name!r} at {_phi_label(phi)}: {msg}") from None
-            if np.any(R <= 0):
-                i = int(np.argmin(R))
-                raise ValueError(f"domain {self.name!r} at {_phi_label(phi)}: vertex {i} has R = {R[i]:.6g} ≤ 0; "
-                                 "the boundary must lie in R > 0")
 
     # ---------------------------------------------------------------------------- constructors
     @classmethod
