@@ -14,7 +14,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import jax
+
 from vpforms.coils import CoilSet, device, device_axis, device_data, device_names
+from vpforms.coils.devices import curve_points, curve_tangents
 
 DEVICES = device_names()
 
@@ -40,6 +43,43 @@ def test_B_converges_to_simsopt_at_second_order(name):
     assert np.all((slopes > -2.2) & (slopes < -1.8)), (name, errs, slopes)
     assert errs[-1] < 1e-4, (name, errs)
     assert errs[-1] > 10 * quad_err  # the polyline's error, not simsopt's, is what was measured
+
+
+@pytest.mark.parametrize("name", DEVICES)
+def test_quadrature_rule_is_simsopts_biot_savart(name):
+    """rule="quadrature" sums simsopt's own current elements: at the 20 stored points its B equals the
+    B simsopt computed to rounding (far below the polyline's O(1/n²) difference, which the test
+    above measures), and B = ∇×A at a point (jacfwd of A)."""
+    pts, B_ref, _ = _check(name)
+    coils = device(name, rule="quadrature")
+    assert _rel_diff(np.asarray(coils.B(pts)), B_ref) < 1e-13
+    assert _rel_diff(np.asarray(device(name).B(pts)), B_ref) > 1e-6  # the polyline's is another field
+    J = np.asarray(jax.jacfwd(coils.A)(pts[0]))
+    curl = np.array([J[2, 1] - J[1, 2], J[0, 2] - J[2, 0], J[1, 0] - J[0, 1]])
+    np.testing.assert_allclose(curl, np.asarray(coils.B(pts[0])), rtol=0, atol=1e-13 * np.abs(B_ref).max())
+
+
+def test_curve_tangents_are_the_derivative_of_the_points():
+    """curve_tangents(c, n)[k] = dγ/dθ at θ_k = k/n: the five-point difference of γ at θ_k ± δ, ± 2δ,
+    γ summed from its Fourier series (the device file's formula) at those θ."""
+    curve = device_data("hsx")["base_curves"][0]
+    cos, sin = np.asarray(curve["cos"], float), np.asarray(curve["sin"], float)
+    m = np.arange(cos.shape[1])
+
+    def gamma(theta):
+        a = 2 * np.pi * np.outer(m, theta)
+        return (cos @ np.cos(a) + sin @ np.sin(a[1:])).T
+
+    n, d = 16, 2e-4
+    th = np.arange(n) / n
+    np.testing.assert_allclose(curve_points(curve, n), gamma(th), rtol=0, atol=1e-14)
+    fd = (-gamma(th + 2 * d) + 8 * gamma(th + d) - 8 * gamma(th - d) + gamma(th - 2 * d)) / (12 * d)
+    np.testing.assert_allclose(curve_tangents(curve, n), fd, rtol=0, atol=1e-9 * np.abs(fd).max())
+
+
+def test_quadrature_bad_rule():
+    with pytest.raises(ValueError, match="rule must be 'polyline' or 'quadrature'"):
+        device("hsx", rule="spline")
 
 
 def _cylindrical_B(coils: CoilSet, R, phi, Z) -> np.ndarray:

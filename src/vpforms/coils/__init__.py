@@ -24,9 +24,13 @@ as a vector-potential object, so ``vpforms.toroidal.toroidal_field(coilset, box)
 (u = R²/2, φ, Z)) and ``Field.from_vector_potential(coilset.potential(), box)`` (Cartesian)
 integrate the field lines of a coil set directly with the volume-preserving methods — natively
 (generated C, the segments passed at run time) where a C compiler exists.
+
+:class:`QuadratureCoils` are smooth closed curves integrated by their quadrature rule (simsopt's
+``BiotSavart``, exactly): ``device(name, rule="quadrature")`` (:mod:`vpforms.coils._quadrature_coils`).
 """
 
 from ._coilset import Coil, CoilPotential, CoilSet
+from ._quadrature_coils import QuadratureCoils, QuadraturePotential
 from ._segments import MU0
 from .devices import DeviceAxis, device, device_axis, device_data, device_domain, device_names
 from .library import circular_tokamak, l2_stellarator
@@ -39,6 +43,8 @@ __all__ = [
     "CoilPotential",
     "CoilSet",
     "DeviceAxis",
+    "QuadratureCoils",
+    "QuadraturePotential",
     "circular_tokamak",
     "device",
     "device_axis",

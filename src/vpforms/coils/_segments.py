@@ -41,7 +41,7 @@ from jax.custom_derivatives import SymbolicZero
 from .. import _config  # noqa: F401  (float64)
 from .._memory import rows_within
 
-__all__ = ["MU0", "segment_chunk", "segments_A", "segments_AB", "segments_B"]
+__all__ = ["MU0", "chunked", "segment_chunk", "segments_A", "segments_AB", "segments_B", "sum_over_points"]
 
 #: the vacuum permeability μ0 = 4π·10⁻⁷ H/m (exact before the 2019 SI redefinition, within 1e-9 since)
 MU0 = 4e-7 * jnp.pi
@@ -107,21 +107,28 @@ def _check(points: Any, xi: Any, xf: Any, current: Any) -> tuple[Any, Any, Any, 
     return points, xi, xf, current
 
 
-def _segment_chunks(xi: Any, xf: Any, e: Any, L: Any, current: Any, size: int) -> tuple:
-    """The segment arrays (each (3, S) or (S,)) cut into ⌈S/size⌉ chunks of ``size`` segments,
-    stacked on a new leading axis; the last chunk is padded with zero-current segments of unit
-    length far away (10⁶ m out), whose terms are exactly 0 with finite derivatives."""
-    S = L.shape[0]
+def chunked(arrays: tuple, fillers: tuple, size: int) -> tuple:
+    """Each array ((3, S) or (S,)) cut into ⌈S/size⌉ chunks of ``size`` columns, stacked on a new
+    leading axis; the last chunk is padded with the columns ``fillers`` (each (3, 1) or (1,),
+    broadcast): terms that are exactly 0 with finite derivatives."""
+    S = arrays[0].shape[-1]
     n = -(-S // size)
     pad = n * size - S
-    far = jnp.asarray([1e6, 0.0, 0.0])[:, None] * jnp.ones((1, pad))
-    up = jnp.asarray([0.0, 0.0, 1.0])[:, None] * jnp.ones((1, pad))
 
     def cut(a, filler):
-        a = jnp.concatenate([a, filler], axis=-1) if pad else a
+        if pad:
+            a = jnp.concatenate([a, jnp.broadcast_to(filler, a.shape[:-1] + (pad,))], axis=-1)
         return jnp.moveaxis(a.reshape(a.shape[:-1] + (n, size)), -2, 0)
 
-    return (cut(xi, far), cut(xf, far + up), cut(e, up), cut(L, jnp.ones(pad)), cut(current, jnp.zeros(pad)))
+    return tuple(cut(a, f) for a, f in zip(arrays, fillers))
+
+
+def _segment_chunks(xi: Any, xf: Any, e: Any, L: Any, current: Any, size: int) -> tuple:
+    """The segment arrays cut into chunks (:func:`chunked`); the padding is zero-current segments
+    of unit length far away (10⁶ m out), whose terms are exactly 0 with finite derivatives."""
+    far = jnp.asarray([[1e6], [0.0], [0.0]])
+    up = jnp.asarray([[0.0], [0.0], [1.0]])
+    return chunked((xi, xf, e, L, current), (far, far + up, up, jnp.ones(1), jnp.zeros(1)), size)
 
 
 def _scan_sum(kernel: Callable, x: Any, chunks: tuple) -> Any:
@@ -190,8 +197,13 @@ def _evaluate(points: Any, xi: Any, xf: Any, current: Any, with_A: bool, with_B:
     if points.ndim == 2:  # the batch of points is ours: larger chunks, as many pairs per batch
         size = max(size, _POINTS_CHUNK)
     size = min(size, S)
-    chunks = _segment_chunks(xi, xf, e, L, current, size)
-    total = _summed(_point_kernel(with_A, with_B))
+    return sum_over_points(_point_kernel(with_A, with_B), points, _segment_chunks(xi, xf, e, L, current, size), size)
+
+
+def sum_over_points(kernel: Callable, points: Any, chunks: tuple, size: int) -> Any:
+    """Σ over the chunks of kernel(x, chunk) at a point (3,) or at points (N, 3): in batches of
+    ``_PAIRS_PER_BATCH // size`` points (``jax.lax.map``), differentiable by :func:`_summed`."""
+    total = _summed(kernel)
 
     def one(x):
         return total(x, chunks)

@@ -45,6 +45,7 @@ import numpy as np
 
 from ..domains import ToroidalDomain
 from ._coilset import Coil, CoilSet, _finite_scalar
+from ._quadrature_coils import QuadratureCoils
 
 __all__ = ["DeviceAxis", "device", "device_axis", "device_data", "device_domain", "device_names"]
 
@@ -85,6 +86,17 @@ def curve_points(curve: dict, n: int) -> np.ndarray:
     return (cos @ np.cos(angles) + sin @ np.sin(angles[1:])).T
 
 
+def curve_tangents(curve: dict, n: int) -> np.ndarray:
+    """The derivatives dγ/dθ of the base curve at θ_k = k/n, shape (n, 3): term by term,
+    d/dθ (c cos 2πmθ + s sin 2πmθ) = 2πm (s cos 2πmθ − c sin 2πmθ)."""
+    cos, sin = np.asarray(curve["cos"], float), np.asarray(curve["sin"], float)
+    theta = np.arange(n) / n
+    m = np.arange(cos.shape[1])
+    angles = 2 * np.pi * np.outer(m, theta)
+    w = 2 * np.pi * m[:, None]
+    return ((sin * w[1:, 0]) @ np.cos(angles[1:]) - (cos * w[:, 0]) @ np.sin(angles)).T
+
+
 def _n_points(n_points: Any, default: int) -> int:
     if n_points is None:
         return default
@@ -103,8 +115,11 @@ def _currents(currents: Any, data: dict, name: str) -> list[float]:
     return [_finite_scalar(v, f"{name} base current {k}") for k, v in enumerate(values)]
 
 
-def device(name: str, n_points: int | None = None, *, currents: Any = None) -> CoilSet:
-    """The coil set of the device ``name`` (:func:`device_names`), its coils as closed polylines.
+def device(name: str, n_points: int | None = None, *, currents: Any = None,
+           rule: str = "polyline") -> CoilSet | QuadratureCoils:
+    """The coil set of the device ``name`` (:func:`device_names`): its coils as closed polylines
+    (``rule="polyline"``), or as the smooth curves by their quadrature (``rule="quadrature"``:
+    :class:`~vpforms.coils.QuadratureCoils`, simsopt's ``BiotSavart`` on the same points to rounding).
 
     Parameters
     ----------
@@ -116,10 +131,16 @@ def device(name: str, n_points: int | None = None, *, currents: Any = None) -> C
         O(1/n_points²).
     currents : sequence of float, optional
         Base-coil currents (A) replacing simsopt's (e.g. W7-X's planar coils, the last two).
+    rule : str
+        ``"polyline"`` (default: straight segments through the points, Hanson–Hirshman; every
+        backend, the native one included, traces them directly) or ``"quadrature"`` (the smooth
+        curve's Biot–Savart integral by the trapezoidal rule on the points: the field simsopt
+        computes, ≈ 1e-6 from the exact curve's near the plasma at simsopt's count, against the
+        polyline's 4e-4 for W7-X; JAX only — for grids and references).
 
     Returns
     -------
-    CoilSet
+    CoilSet or QuadratureCoils
         nfp·2·(base coils with current) coils (module docstring for order and signs), with
         ``nfp`` and ``stellsym`` set; group k+1 and name ``<device>_c<k+1>`` for base coil k.
 
@@ -127,12 +148,22 @@ def device(name: str, n_points: int | None = None, *, currents: Any = None) -> C
     ------
     ValueError
         An unknown name (listing the known ones), n_points < 3, currents of the wrong length or
-        not finite, or no coil with current.
+        not finite, no coil with current, or an unknown rule.
     """
     key = _key(name)
+    if rule not in ("polyline", "quadrature"):
+        raise ValueError(f"rule must be 'polyline' or 'quadrature'; got {rule!r}")
     data = device_data(key)
     n = _n_points(n_points, int(data["n_quadpoints"]))
     cur = _currents(currents, data, key)
+    if rule == "quadrature":
+        kept = [(c, I, f"{key}_c{k + 1}") for k, (c, I) in enumerate(zip(data["base_curves"], cur)) if I != 0]
+        if not kept:
+            raise ValueError(f"{key}: every base coil has zero current")
+        return QuadratureCoils.from_symmetry([curve_points(c, n) for c, _, _ in kept],
+                                             [curve_tangents(c, n) for c, _, _ in kept], [I for _, I, _ in kept],
+                                             nfp=int(data["nfp"]), stellsym=bool(data["stellsym"]),
+                                             names=[nm for _, _, nm in kept])
     base = [Coil(curve_points(c, n), I, k + 1, f"{key}_c{k + 1}")
             for k, (c, I) in enumerate(zip(data["base_curves"], cur)) if I != 0]
     if not base:
