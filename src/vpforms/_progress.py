@@ -1,6 +1,8 @@
 """The progress bar of long runs (rich, on stderr), shared by every backend and the diagnostics.
 
-Split from ``_integrate.py`` (issue #19: imports flow one way).
+Split from ``_integrate.py`` (issue #19: imports flow one way). The bar shares its console with
+the phase spinner of :mod:`vpforms._phases` and pauses that spinner while it shows (one live
+display on the terminal at a time).
 """
 
 from __future__ import annotations
@@ -16,6 +18,9 @@ from rich.progress import (
     TimeElapsedColumn,
     TimeRemainingColumn,
 )
+
+from ._phases import current as _current_phases
+from ._phases import stderr_console
 
 __all__ = ["_Bar"]
 
@@ -34,8 +39,11 @@ class _Bar:
         self.t_start = time.perf_counter()
         self.progress = None
         self.task = None
+        self._phases = None
 
     def _start(self):
+        self._phases = _current_phases()
+        self._phases.pause()  # the bar replaces the spinner of the running phase while it shows
         self.progress = Progress(
             TextColumn("[bold]{task.description}"),
             BarColumn(),
@@ -44,7 +52,7 @@ class _Bar:
             TimeElapsedColumn(),
             TimeRemainingColumn(),
             transient=True,
-            console=Console(stderr=True),
+            console=stderr_console(),
         )
         self.progress.start()
         self.task = self.progress.add_task(self.label, total=self.total, completed=self.done)
@@ -67,3 +75,6 @@ class _Bar:
     def close(self):
         if self.progress is not None:
             self.progress.stop()
+        if self._phases is not None:
+            self._phases.resume()
+            self._phases = None

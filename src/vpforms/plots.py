@@ -6,7 +6,11 @@
   reference slopes h¹, h², h⁴.
 * :func:`drift_figure` — volume drift |log det D(Ψ_h^n)| (and invariant drift) against time on a
   log scale, one line per method (max and median over particles).
+* :func:`fieldline_figure` — a toroidal section in (R, Z) with units, the magnetic axis, island
+  O- and X-points, the wall, a legend and a colour bar (issue #41 item 6).
+* :func:`iota_figure` — the ι and q = 1/ι profiles against the starting radius, with the axis's ι.
 
+Titles are wrapped to the figure's width, so that none runs off its edge.
 Each returns the :class:`matplotlib.figure.Figure` and writes a PNG when ``path`` is given.
 """
 
@@ -194,49 +198,150 @@ def drift_figure(
     return fig
 
 
+def _wrapped(fig, text: str, fontsize: float, share: float = 0.96) -> str:
+    """``text`` broken (textwrap, at spaces) into lines that fit ``share`` of the figure's width:
+    a character of a sans-serif font at ``fontsize`` pt is ≤ 0.6·fontsize pt wide on average
+    (DejaVu Sans: 0.55 for digits and lower case), so a line holds width/(0.6·fontsize) of them.
+    Existing line breaks are kept; "h = 0.05" is never split at its "=" (no-break spaces)."""
+    import textwrap
+
+    width_pt = fig.get_figwidth() * 72.0 * share
+    chars = max(int(width_pt / (0.6 * fontsize)), 12)
+    text = str(text).replace(" = ", "\u00a0=\u00a0")
+    return "\n".join(textwrap.fill(part, chars, break_on_hyphens=False) for part in text.split("\n"))
+
+
+def _unit(label: str, units: str) -> str:
+    """"R (m)", or "R" when the units are unknown ("")."""
+    return f"{label} ({units})" if units else label
+
+
+def _angle_text(phi0: float, nfp: int) -> str:
+    """φ = 0, φ = 0.628 rad; with "(mod 2π/nfp)" for nfp > 1."""
+    base = "φ = 0" if phi0 == 0 else f"φ = {phi0:.4g} rad"
+    return base + (f" (mod 2π/{nfp})" if nfp > 1 else "")
+
+
 def fieldline_figure(section: Any, axis: Any = None, fixed_points: Sequence[Any] = (), wall: Any = None,
-                     title: str | None = None, path: str | None = None):
-    """A toroidal Poincaré section in (R, Z) (:class:`~vpforms.fieldlines.ToroidalSection`), coloured
-    by line, with the magnetic axis (×), island O-points (○) and X-points (✕), and the wall."""
-    fig = _figure(6.0, 6.4)
+                     title: str | None = None, path: str | None = None, *, units: str = "m",
+                     color_by: Any = None, color_label: str | None = None):
+    """A toroidal Poincaré section in (R, Z) (:class:`~vpforms.fieldlines.ToroidalSection`): the
+    crossings coloured by line (a colour bar gives the line's index, or ``color_by``: one value per
+    line, e.g. its starting R or connection length, named by ``color_label``), the magnetic axis
+    (+), island O-points (○) and X-points (✕), and the wall; a legend names each.
+
+    ``units``: of R and Z, "m" for coil and grid fields (the default), "" when unknown (the labels
+    are then plain "R", "Z"). The title is wrapped to the figure's width (:func:`_wrapped`), so
+    that it never runs off the edge; the legend sits below the axes, off the points."""
+    import matplotlib
+    from matplotlib.cm import ScalarMappable
+    from matplotlib.colors import BoundaryNorm, Normalize
+    from matplotlib.lines import Line2D
+
+    fig = _figure(6.4, 7.4)
     ax = fig.add_subplot(1, 1, 1)
-    n = int(section.line.max()) + 1 if len(section) else 1
-    size = float(np.clip(2e4 / max(len(section), 1), 0.6, 6.0))  # few points: bigger dots
-    ax.scatter(section.R, section.Z, c=section.line, s=size, cmap="viridis", vmin=0, vmax=max(n - 1, 1),
-               linewidths=0, rasterized=True)
+    n_pts = len(section)
+    n_lines = int(np.asarray(section.status).size) or (int(section.line.max()) + 1 if n_pts else 1)
+    size = float(np.clip(2e4 / max(n_pts, 1), 0.6, 8.0))  # few points: bigger dots
+    line = np.asarray(section.line, dtype=np.int64)
+    if color_by is not None:
+        vals = np.asarray(color_by, dtype=np.float64).reshape(-1)
+        if vals.size <= (int(line.max()) if n_pts else -1):
+            raise ValueError(f"color_by has {vals.size} values; the section has lines 0 … {int(line.max())}")
+        c = vals[line]
+        finite = vals[np.isfinite(vals)]
+        lo, hi = (float(finite.min()), float(finite.max())) if finite.size else (0.0, 1.0)
+        if hi <= lo:
+            lo, hi = lo - 0.5, hi + 0.5
+        cmap, norm = matplotlib.colormaps["viridis"], Normalize(lo, hi)
+        clabel = color_label or "line value"
+    else:  # one colour per line, the bar's ticks at the line indices
+        c = line
+        cmap = matplotlib.colormaps["viridis"].resampled(max(n_lines, 2))
+        norm = BoundaryNorm(np.arange(-0.5, max(n_lines, 2) + 0.5), cmap.N)
+        clabel = color_label or "field line (index)"
+    ax.scatter(section.R, section.Z, c=c, s=size, cmap=cmap, norm=norm, linewidths=0, rasterized=True)
+    handles = [Line2D([], [], ls="none", marker="o", ms=4, color=cmap(0.6),
+                      label=f"section points ({n_pts} crossings of {n_lines} lines)")]
     if wall is not None:
-        ax.plot(wall.R, wall.Z, "k-", lw=1.0, label="wall")
+        (w,) = ax.plot(wall.R, wall.Z, "k-", lw=1.2, label="wall")
+        handles.append(w)
     if axis is not None:
-        ax.plot([axis.R], [axis.Z], "r+", ms=12, mew=2, label=f"axis (ι = {axis.iota:.6g})")
-    for kind, marker in (("O", "o"), ("X", "x")):
+        iota_text = f", ι = {axis.iota:.5g}" if np.isfinite(getattr(axis, "iota", np.nan)) else ""
+        (a,) = ax.plot([axis.R], [axis.Z], "+", color="C3", ms=13, mew=2.2, zorder=5,
+                       label=f"magnetic axis{iota_text}")
+        handles.append(a)
+    for kind, marker, colour, what in (("O", "o", "C1", "O-points (elliptic)"), ("X", "x", "C3", "X-points (hyperbolic)")):
         pts = [p for p in fixed_points if p.kind == kind]
         if pts:
-            orbit = np.concatenate([p.orbit for p in pts])
-            ax.plot(orbit[:, 0], orbit[:, 1], marker, color="C3", ms=7, mfc="none", mew=1.6,
-                    label=f"{kind}-points (m = {pts[0].m})")
-    ax.set_xlabel("R")
-    ax.set_ylabel("Z")
+            orbit = np.concatenate([np.asarray(p.orbit, float).reshape(-1, 2) for p in pts])
+            ms = sorted({int(p.m) for p in pts})
+            (h,) = ax.plot(orbit[:, 0], orbit[:, 1], marker, color=colour, ms=8, mfc="none", mew=1.8, zorder=6,
+                           label=f"{what}, m = {', '.join(map(str, ms))}")
+            handles.append(h)
+    ax.set_xlabel(_unit("R", units), fontsize=11)
+    ax.set_ylabel(_unit("Z", units), fontsize=11)
+    ax.tick_params(labelsize=10)
     ax.set_aspect("equal", adjustable="datalim")
-    if axis is not None or fixed_points or wall is not None:
-        ax.legend(loc="upper right", fontsize=8)
-    ax.set_title(title or f"section φ = {section.phi0:.4g}", fontsize=10)
+    ax.grid(True, lw=0.3, alpha=0.4)
+    ax.set_title(f"Poincaré section {_angle_text(float(section.phi0), int(section.nfp))}", fontsize=11)
+    sm = ScalarMappable(norm=norm, cmap=cmap)
+    cb = fig.colorbar(sm, ax=ax, shrink=0.85, pad=0.02)
+    cb.set_label(_wrapped(fig, clabel, 10, share=0.5), fontsize=10)
+    if color_by is None:
+        step = max(1, int(math.ceil(n_lines / 10)))
+        cb.set_ticks(np.arange(0, n_lines, step))
+    cb.ax.tick_params(labelsize=9)
+    fig.legend(handles=handles, loc="outside lower center", ncol=2, fontsize=9, frameon=False)
+    if title:
+        fig.suptitle(_wrapped(fig, title, 11), fontsize=11)
     save(fig, path)
     return fig
 
 
-def iota_figure(iota: Any, title: str | None = None, path: str | None = None):
-    """ι and q = 1/ι against the starting radius R (:class:`~vpforms.fieldlines.Iota`), with the
-    Birkhoff error estimate as error bars."""
-    fig = _figure(7.0, 4.2)
+def iota_figure(iota: Any, title: str | None = None, path: str | None = None, *, units: str = "m",
+                axis: Any = None):
+    """The rotational transform ι and the safety factor q = 1/ι against the starting radius R of
+    each line (:class:`~vpforms.fieldlines.Iota`), with the weighted Birkhoff average's error
+    estimate |ι_N − ι_{N/2}| as error bars, and, given ``axis`` (a
+    :class:`~vpforms.fieldlines.FixedPoint`), the axis's ι from the tangent map at R_axis.
+
+    Labels at ≥ 10 pt, spelled out ("rotational transform ι", "safety factor q = 1/ι"), the
+    abscissa in ``units`` ("m"; "" when unknown); lines whose ι is not finite (a failed line) are
+    left out and counted in a note; the title is wrapped to the figure's width."""
+    from matplotlib.lines import Line2D
+
+    fig = _figure(8.0, 4.8)
     a1 = fig.add_subplot(1, 2, 1)
     a2 = fig.add_subplot(1, 2, 2)
-    ok = np.isfinite(iota.iota)
-    a1.errorbar(iota.R0[ok], iota.iota[ok], yerr=iota.error[ok], fmt=".-", ms=4, lw=0.8)
-    a1.set_xlabel("R (start, Z = axis)")
-    a1.set_ylabel("ι")
-    a2.plot(iota.R0[ok], iota.q[ok], ".-", ms=4, lw=0.8, color="C1")
-    a2.set_xlabel("R (start, Z = axis)")
-    a2.set_ylabel("q = 1/ι")
-    fig.suptitle(title or "rotational transform (weighted Birkhoff average)", fontsize=10)
+    vals = np.asarray(iota.iota, float)
+    R0 = np.asarray(iota.R0, float)
+    err = np.asarray(iota.error, float)
+    ok = np.isfinite(vals)
+    yerr = np.where(np.isfinite(err[ok]), err[ok], 0.0)
+    a1.errorbar(R0[ok], vals[ok], yerr=yerr, fmt="o-", ms=4, lw=1.0, capsize=2, color="C0")
+    q = np.asarray(iota.q, float)
+    okq = ok & np.isfinite(q)
+    a2.plot(R0[okq], q[okq], "o-", ms=4, lw=1.0, color="C1")
+    handles = [Line2D([], [], marker="o", color="C0", ms=4, lw=1.0,
+                      label="field lines: weighted Birkhoff average (bars: |ι(N) − ι(N/2)|)")]
+    if axis is not None and np.isfinite(getattr(axis, "iota", np.nan)):
+        a1.plot([axis.R], [axis.iota], "*", color="C3", ms=12, zorder=5)
+        if axis.iota != 0:
+            a2.plot([axis.R], [1.0 / axis.iota], "*", color="C3", ms=12, zorder=5)
+        handles.append(Line2D([], [], ls="none", marker="*", color="C3", ms=10,
+                              label=f"magnetic axis (tangent map), ι = {axis.iota:.5g}"))
+    xlabel = _unit("starting R on Z = Z_axis", units)
+    for a, ylabel in ((a1, "rotational transform ι"), (a2, "safety factor q = 1/ι")):
+        a.set_xlabel(xlabel, fontsize=11)
+        a.set_ylabel(ylabel, fontsize=11)
+        a.tick_params(labelsize=10)
+        a.grid(True, lw=0.3, alpha=0.4)
+    failed = int(np.count_nonzero(~ok))
+    if failed:
+        a1.text(0.02, 0.02, f"{failed} of {vals.size} lines failed (no ι): not shown", transform=a1.transAxes,
+                fontsize=9, color="0.3")
+    fig.legend(handles=handles, loc="outside lower center", ncol=1, fontsize=9, frameon=False)
+    fig.suptitle(_wrapped(fig, title or "rotational transform ι and safety factor q", 11), fontsize=11)
     save(fig, path)
     return fig

@@ -57,8 +57,17 @@ class ToroidalSection:
                                t=self.t[k], status=self.status, phi0=self.phi0, nfp=self.nfp, section=self.section)
 
     def to_csv(self, path: str) -> None:
-        """Write line, transit, phi, t, R, Z (one row per crossing)."""
-        data = np.column_stack([self.line, self.transit, self.phi, self.t, self.R, self.Z])
+        """Write line, transit, phi, t, R, Z (one row per crossing).
+
+        ``phi`` is the section's angle, the crossed half-plane's φ modulo the field period
+        P = 2π/nfp, in [0, P): a crossing located a rounding error below a multiple of P (φ =
+        2π − 1e-16, which ``np.mod`` leaves at 2π − 1e-16 or rounds to 2π) is the section φ = 0,
+        so values within 1e-9·P of P are written as 0 — every row of the section φ₀ reads φ₀, never
+        0 for some and 6.283185 for others (issue #41)."""
+        P = 2 * math.pi / int(self.nfp)
+        phi = np.mod(np.asarray(self.phi, dtype=np.float64), P)
+        phi[phi >= P * (1.0 - 1e-9)] = 0.0  # np.mod may also return P itself for a tiny negative φ
+        data = np.column_stack([self.line, self.transit, phi, self.t, self.R, self.Z])
         np.savetxt(path, data, delimiter=",", header="line,transit,phi,t,R,Z", comments="",
                    fmt=["%d", "%d"] + ["%.17g"] * 4)
 
