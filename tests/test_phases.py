@@ -146,3 +146,36 @@ def test_format_seconds():
     assert format_seconds(0.001) == "< 0.01 s" and format_seconds(61.0) == "61.0 s"
     with pytest.raises(ValueError, match="delay"):
         Phases(delay=-1)
+
+
+# ------------------------------------------------------------------- the native compile is a phase
+@pytest.fixture
+def fresh_native_cache(tmp_path, monkeypatch):
+    from vpforms.backends.native import build, runner
+
+    if not build.available()[0]:
+        pytest.skip("no C compiler here")
+    monkeypatch.setenv("VPFORMS_NATIVE_CACHE", str(tmp_path / "native"))
+    monkeypatch.setattr(build, "_loaded", {})
+    monkeypatch.setattr(runner, "_kernels", {})
+    return build
+
+
+def test_a_large_native_compile_says_so_outside_the_compilers_captured_output(fresh_native_cache, capfd):
+    """Announced before fd 2 is redirected to collect the compiler's output, ended after it is
+    restored: both lines reach stderr, the compiler's notes do not. A cache hit is no phase."""
+    build = fresh_native_cache
+    pad = "/* " + "x" * build.ANNOUNCE_BYTES + " */\n"  # a comment: as large as announced, fast to compile
+    source = pad + "int vp_seven(void) { return 7; }"
+    kb = f"{len(source.encode()) / 1024:.0f}"
+    with Phases(terminal=False) as log:
+        lib = build.build(source, "int vp_seven(void);")
+        assert lib.lib.vp_seven() == 7
+        build.build(source, "int vp_seven(void);")  # loaded: no phase
+    err = capfd.readouterr().err.splitlines()
+    assert err[0] == f"[vpforms] compiling the native kernel ({kb} KB of C) …"
+    assert err[1].startswith(f"[vpforms] compiling the native kernel ({kb} KB of C): done in ") and len(err) == 2
+    assert [r.name for r in log.records] == [f"compiling the native kernel ({kb} KB of C)"]
+    with Phases(terminal=False) as log2:  # a small one: recorded, not announced
+        build.build("int vp_eight(void) { return 8; }", "int vp_eight(void);")
+    assert capfd.readouterr().err == "" and len(log2.records) == 1

@@ -182,8 +182,7 @@ class Phases:
             indent = "  " * run.depth
             if not self._is_terminal():
                 self._line(f"{_PREFIX} {indent}{run.name} …")
-            elif not run.live:  # no spinner thread while this phase runs (module docstring)
-                self._stop_spinner()
+            elif not run.live:  # the spinner is paused while this phase runs (module docstring)
                 self._console().print(f"{indent}{run.name} …", markup=False)
             else:
                 self._show(run)
@@ -246,6 +245,8 @@ class Phases:
             run = _Running(str(name), len(self._stack), time.perf_counter(), bool(live))
             self._stack.append(run)
         wait = self.delay if delay is None else float(delay)
+        if not run.live:  # announced or not: no spinner thread writes while it runs
+            self.pause()
         if announce and not self._quiet():
             if wait <= 0:
                 self._announce(run)
@@ -259,6 +260,8 @@ class Phases:
             ok = True
         finally:
             self._finish(run, time.perf_counter() - run.t0, ok)
+            if not run.live:
+                self.resume()
 
     # -- the trace progress bars (rich) pause the spinner while they show -------------------------
     def pause(self) -> None:

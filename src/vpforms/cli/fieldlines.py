@@ -143,58 +143,82 @@ def _cmd_fieldlines(args, console) -> int:
 
 
 def _study(args, console) -> int:
+    """The study in phases (:mod:`vpforms._phases`): each says on stderr what it does and how long
+    it took (``--quiet`` or ``VPFORMS_QUIET=1``: silent), and the summary's timing table lists every
+    phase — nested ones, such as a spline grid's sampling or a native kernel's compilation, under
+    theirs — with the time outside them and the total."""
+    from types import SimpleNamespace
+
+    from .._phases import LIBRARY_DELAY, Phases
+    from ..fieldlines._fixedpoints import _check_section_points
+
     existing = _check_out(args, ("png", FIGURE_SUFFIXES), ("iota_png", FIGURE_SUFFIXES), ("csv", CSV_SUFFIXES))
     refuse_unless(args, ("R", "Z", "grid"), bool(args.coils), "without --coils (the spline grid of a coils file)")
     refuse_unless(args, ("problem", "param"), not (args.coils or args.mgrid),
                   "with --coils/--mgrid (the field is the file's)")
     refuse_unless(args, ("lines",), not args.radii, "with --radii (it gives the start points)")
     refuse_unless(args, ("island_range", "island_scan"), bool(args.islands), "without --islands M")
-    field, nfp, guess, span, name, default_wall = _field_source(args)
-    wall = None
-    if args.wall == "default":
-        if default_wall is None:
-            raise CLIError(f"--wall default: {name} has no default wall; give the polygon R1,Z1,R2,Z2,…")
-        wall = default_wall
-    elif args.wall:
-        v = np.asarray(args.wall, float)
-        if v.size % 2 or v.size < 8:
-            raise CLIError("--wall takes R1,Z1,R2,Z2,… (a closed polygon: the last vertex repeats the first)")
-        wall = Wall(v[0::2], v[1::2])
-    method = _method_from_args(args, field)
-    t_all = time.perf_counter()
-    t = time.perf_counter()
-    P = return_map(method, args.h, args.phi, nfp, guess=guess)
-    axis = magnetic_axis(method, guess, args.h, args.phi, nfp, return_map_=P)
-    t_axis = time.perf_counter() - t
-    # start points on the line Z = Z_axis of the section, outboard of the axis
-    if args.radii:
-        dr = np.asarray(args.radii, float)
-    else:
-        lo, hi = span if span is not None else (0.02, 0.2)
-        dr = np.linspace(max(lo, 1e-3), hi, args.lines)
-    Rs = axis.R + dr
-    x0 = np.stack([P.state(np.array([r, axis.Z])) for r in Rs])
-    x0 = np.asarray(x0, float)
-    per_step = abs(float(P._dphi(method.step_with_status(x0[0], args.h)[0], x0[0])))
-    steps = max(2, int(math.ceil(args.transits * 2 * math.pi / (per_step))))
-    t = time.perf_counter()
-    sec = toroidal_section(method, x0, args.h, steps, phi=args.phi, nfp=nfp, progress="auto")
-    t_sec = time.perf_counter() - t
-    t = time.perf_counter()
-    iota = rotational_transform(method, x0, args.h, steps, axis, progress="auto")
-    t_iota = time.perf_counter() - t
-    chains = []
-    if args.islands:
-        lo, hi = (args.island_range if args.island_range else (Rs.min(), Rs.max()))
-        chains = island_chain(method, args.islands, args.h, np.linspace(lo, hi, args.island_scan), axis.Z, args.phi, nfp)
-    hits = None
-    if wall is not None:
-        hits = trace_to_wall(method, x0, args.h, steps, wall, progress="auto")
-        sec = sec.before(hits.t_exit)  # a line ends where it meets the wall
-    sec.to_csv(args.csv)
-    title = f"{name}: {sec.section.method}, h = {args.h:g}, {args.transits:g} transits"
-    plots.fieldline_figure(sec, axis, chains, wall, title=title, path=args.png)
-    plots.iota_figure(iota, title=f"ι profile — {name}", path=args.iota_png)
+    with Phases(quiet=True if getattr(args, "quiet", False) else None) as log:
+        # the field: its long parts (a coil set sampled and splined) are phases of their own; an
+        # mgrid file is read, splined and checked in one, announced once it has run 2 s (a file
+        # refused at once is one error line)
+        with log.phase(f"reading {args.mgrid}" if args.mgrid else "reading the field", announce=bool(args.mgrid),
+                       delay=LIBRARY_DELAY):
+            field, nfp, guess, span, name, default_wall = _field_source(args)
+        wall = None
+        if args.wall == "default":
+            if default_wall is None:
+                raise CLIError(f"--wall default: {name} has no default wall; give the polygon R1,Z1,R2,Z2,…")
+            wall = default_wall
+        elif args.wall:
+            v = np.asarray(args.wall, float)
+            if v.size % 2 or v.size < 8:
+                raise CLIError("--wall takes R1,Z1,R2,Z2,… (a closed polygon: the last vertex repeats the first)")
+            wall = Wall(v[0::2], v[1::2])
+        # a guess outside the field's box is a usage error before anything is built
+        _check_section_points(SimpleNamespace(field=field), args.phi, [guess], "the axis guess")
+        analytic = args.problem.lower().replace("-", "_") == "tokamak" and not (
+            args.coils or args.mgrid or getattr(args, "device", None))
+        units = "" if analytic else "m"  # the analytic tokamak's lengths are those of its R0: no unit
+        order = f", order {args.order}" if args.order != 1 else ""
+        with log.phase(f"building the method ({args.method}{order})"):
+            method = _method_from_args(args, field)
+        with log.phase("searching for the magnetic axis (Newton on the return map)"):
+            P = return_map(method, args.h, args.phi, nfp, guess=guess)
+            axis = magnetic_axis(method, guess, args.h, args.phi, nfp, return_map_=P)
+        # start points on the line Z = Z_axis of the section, outboard of the axis
+        if args.radii:
+            dr = np.asarray(args.radii, float)
+        else:
+            lo, hi = span if span is not None else (0.02, 0.2)
+            dr = np.linspace(max(lo, 1e-3), hi, args.lines)
+        Rs = axis.R + dr
+        x0 = np.asarray(np.stack([P.state(np.array([r, axis.Z])) for r in Rs]), float)
+        with log.phase(f"tracing the section ({len(x0)} lines, {args.transits:g} transits)"):
+            per_step = abs(float(P._dphi(method.step_with_status(x0[0], args.h)[0], x0[0])))
+            steps = max(2, int(math.ceil(args.transits * 2 * math.pi / (per_step))))
+            sec = toroidal_section(method, x0, args.h, steps, phi=args.phi, nfp=nfp, progress="auto")
+        with log.phase(f"computing ι of the lines (weighted Birkhoff averages, {len(x0)} lines)"):
+            iota = rotational_transform(method, x0, args.h, steps, axis, progress="auto")
+        chains = []
+        if args.islands:
+            lo, hi = (args.island_range if args.island_range else (Rs.min(), Rs.max()))
+            with log.phase(f"searching for m = {args.islands} island chains ({args.island_scan} scan points)"):
+                chains = island_chain(method, args.islands, args.h, np.linspace(lo, hi, args.island_scan), axis.Z,
+                                      args.phi, nfp)
+        hits = None
+        if wall is not None:
+            with log.phase(f"tracing the lines to the wall ({len(x0)} lines)"):
+                hits = trace_to_wall(method, x0, args.h, steps, wall, progress="auto")
+            sec = sec.before(hits.t_exit)  # a line ends where it meets the wall
+        with log.phase("writing the CSV and the figures"):
+            sec.to_csv(args.csv)
+            what = f"{sec.section.method}, h = {args.h:g}, {args.transits:g} transits"
+            R_label = f"starting R ({units})" if units else "starting R"
+            plots.fieldline_figure(sec, axis, chains, wall, title=f"{name}: {what}", path=args.png, units=units,
+                                   color_by=Rs, color_label=R_label)
+            plots.iota_figure(iota, title=f"{name}: rotational transform and safety factor; {what}",
+                              path=args.iota_png, units=units, axis=axis)
     rows = {
         "field": name,
         "method": sec.section.method,
@@ -206,8 +230,6 @@ def _study(args, console) -> int:
                           f"(max Birkhoff error estimate {np.nanmax(iota.error):.1e})",
         "crossings": len(sec),
         "failed lines": int(np.count_nonzero(sec.status != 0)),
-        "wall time (s): axis / section / ι / total": f"{t_axis:.1f} / {t_sec:.1f} / {t_iota:.1f} / "
-                                                     f"{time.perf_counter() - t_all:.1f}",
     }
     for fp in chains:
         rows[f"{fp.kind}-point, m = {fp.m}"] = f"({fp.R:.8g}, {fp.Z:.3g}), residue {fp.residue:.4g}"
@@ -215,6 +237,7 @@ def _study(args, console) -> int:
         rows["lines that hit the wall"] = f"{int(hits.hit.sum())} of {len(x0)}" + (
             f", median connection length {np.median(hits.connection_length[hits.hit]):.4g}" if hits.hit.any() else "")
     console.print(_summary_table("vpforms fieldlines", rows))
+    console.print(log.table())
     console.print(f"section: {_written(args.png, existing)}\nι profile: {_written(args.iota_png, existing)}\n"
                   f"section points CSV: {_written(args.csv, existing)}", soft_wrap=True)
     return 0
@@ -225,7 +248,9 @@ def register(sub) -> None:
     p = sub.add_parser("fieldlines", help="field-line study of a toroidal field: section, axis, ι, islands, wall",
                        description="Poincaré section at φ = const in (R, Z), magnetic axis and its ι (tangent "
                                    "map of the return map), ι/q profile of the lines (weighted Birkhoff "
-                                   "averages), optional island chains and wall; PNGs and a CSV.")
+                                   "averages), optional island chains and wall; PNGs and a CSV. Each phase (grid, method, "
+                                   "kernel compile, axis, section, ι, islands, wall, figures) says on stderr what "
+                                   "it does and how long it took; the summary ends with a table of their times.")
     p.add_argument("--problem", default="tokamak",
                    help="tokamak (in u = R²/2, φ, Z), coil_tokamak or coil_stellarator; default tokamak")
     p.add_argument("--param", action="append", metavar="NAME=VALUE", help="problem parameter, e.g. --param eps=0")
@@ -247,7 +272,14 @@ def register(sub) -> None:
     p.add_argument("--island-scan", type=_positive_int, default=33, help="scan points (default 33)")
     p.add_argument("--wall", type=_wall_arg, default=None,
                    help="closed (R, Z) polygon R1,Z1,…,R1,Z1, or 'default': the problem's own wall")
-    p.add_argument("--png", default="vpforms-fieldlines.png", help="section figure: .png, .pdf or .svg (default vpforms-fieldlines.png)")
-    p.add_argument("--iota-png", default="vpforms-iota.png", help="ι profile figure: .png, .pdf or .svg (default vpforms-iota.png)")
-    p.add_argument("--csv", default="vpforms-fieldlines.csv", help="section points: .csv (default vpforms-fieldlines.csv)")
+    p.add_argument("--png", default="vpforms-fieldlines.png",
+                   help="section figure: .png, .pdf or .svg (default vpforms-fieldlines.png; an existing file "
+                        "is replaced, and the summary says so)")
+    p.add_argument("--iota-png", default="vpforms-iota.png",
+                   help="ι and q profile figure: .png, .pdf or .svg (default vpforms-iota.png; replaced likewise)")
+    p.add_argument("--csv", default="vpforms-fieldlines.csv",
+                   help="section points line,transit,phi,t,R,Z, phi modulo the field period: .csv "
+                        "(default vpforms-fieldlines.csv; replaced likewise)")
+    p.add_argument("--quiet", action="store_true",
+                   help="no phase lines on stderr (also VPFORMS_QUIET=1); the timing table is printed all the same")
     p.set_defaults(func=_cmd_fieldlines)

@@ -5,6 +5,8 @@ environment variable ``VPFORMS_NATIVE_CACHE``), keyed by a hash of source + flag
 version; a build writes into a private temporary directory and is published by ``os.replace``
 (atomic on POSIX), so concurrent processes never see a half-written object.
 ``VPFORMS_NATIVE_DISABLE=1`` makes :func:`available` report no compiler (tests, debugging).
+A compilation is a phase of :mod:`vpforms._phases` ("compiling the native kernel (… KB of C)"),
+announced on stderr for sources of :data:`ANNOUNCE_BYTES` or more (issue #41 item 2).
 
 What the compiler prints (with these flags gcc's ``cc1: note: disable pass …`` for each
 ``-fdisable-tree-…``) is captured, not shown: it goes to the logger ``vpforms.native`` at level
@@ -28,6 +30,8 @@ from contextlib import contextmanager
 from functools import lru_cache
 from pathlib import Path
 
+from ..._phases import phase
+
 __all__ = ["FLAGS", "available", "build", "cache_dir", "compiler", "COUNTERS"]
 
 #: -ffast-math lets gcc call libmvec's vector sin/cos; -fno-finite-math-only keeps NaN/inf tests
@@ -38,6 +42,9 @@ FLAGS = ("-O3", "-march=native", "-ffast-math", "-fno-finite-math-only",
          "-fdisable-tree-sincos", "-fdisable-tree-reassoc1", "-fdisable-tree-reassoc2", "-fopenmp")
 #: How many compilations / cache hits this process did (tests read it).
 COUNTERS = {"compiled": 0, "cache_hits": 0}
+#: a compilation of at least this much C is announced on stderr (vpforms._phases; gcc takes ~1 s per
+#: 6 KB of generated C here): smaller ones take about a second and stay silent
+ANNOUNCE_BYTES = 8192
 
 _loaded: dict[str, object] = {}
 _log = logging.getLogger("vpforms.native")
@@ -107,12 +114,14 @@ def build(source: str, cdef: str):
         ffi.set_source(name, source, extra_compile_args=[*FLAGS, "-w"], extra_link_args=["-fopenmp"],
                        libraries=["m"])
         tmp = tempfile.mkdtemp(prefix=name + ".", dir=d)
+        kb = len(source.encode()) / 1024
         try:
             env_cc = os.environ.get("CC")
             os.environ["CC"] = cc
             failure = None
-            try:
-                with _compiler_output() as printed:
+            try:  # a phase (vpforms._phases) said before the output is redirected: no thread writes into it
+                with phase(f"compiling the native kernel ({kb:.0f} KB of C)", delay=0, live=False,
+                           announce=kb * 1024 >= ANNOUNCE_BYTES), _compiler_output() as printed:
                     try:
                         out = ffi.compile(tmpdir=tmp, verbose=False)
                     except Exception as exc:  # noqa: BLE001  (cffi's VerificationError, distutils' CompileError …)
