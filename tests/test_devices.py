@@ -280,7 +280,7 @@ def test_domain_fits_the_problem_box(name):
     from vpforms.problems.devices import _box
 
     dom = device_domain(name)
-    box = _box(dom, dom.nfp)
+    box = _box(name, dom.nfp)
     R_range, Z_range = np.sqrt(2 * np.asarray(box[0])), box[2]
     dom.check_within(R_range, Z_range, what=f"{name}'s box")
     r0, r1, z0, z1 = dom.bounds
