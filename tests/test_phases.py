@@ -179,3 +179,21 @@ def test_a_large_native_compile_says_so_outside_the_compilers_captured_output(fr
     with Phases(terminal=False) as log2:  # a small one: recorded, not announced
         build.build("int vp_eight(void) { return 8; }", "int vp_eight(void);")
     assert capfd.readouterr().err == "" and len(log2.records) == 1
+
+
+# --------------------------------------------------------- a coil set's spline grid is three phases
+@pytest.mark.slow
+def test_a_coil_grid_says_it_samples_fits_and_measures():
+    """spline_coil_field on a 10×8×10 grid of the l = 2 stellarator (~8 s: the fit and the error
+    measurement compile JAX code): three nested phases, the sampling naming its node count."""
+    from vpforms.coils import l2_stellarator
+    from vpforms.problems.coil_fields import spline_coil_field
+
+    buf = io.StringIO()
+    with Phases(stream=buf, terminal=False) as log, log.phase("reading the field"):
+        spline_coil_field(l2_stellarator(), (0.8, 1.18), (-0.18, 0.18), n_R=10, n_phi=8, n_Z=10, name="l2")
+    names = [(r.name, r.depth) for r in log.ordered()]
+    assert names == [("reading the field", 0), (f"sampling the vector potential of l2 at {10 * 8 * 10:,} grid nodes", 1),
+                     ("fitting the 10×8×10 spline of A", 1),
+                     ("measuring the spline's error against the coils at 400 points", 1)]
+    assert len(_lines(buf)) == 8  # each phase: a line when it starts, one when it ends

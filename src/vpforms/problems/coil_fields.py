@@ -32,6 +32,7 @@ from functools import lru_cache
 import jax
 import numpy as np
 
+from .._phases import phase
 from .._vecpot import SumPotential, curl_of
 from ..coils import CoilSet, circular_tokamak, l2_stellarator
 from ..coils._ring import CircularRingPotential
@@ -109,17 +110,22 @@ def spline_coil_field(coils: CoilSet, R: tuple, Z: tuple, *, n_R: int = 40, n_ph
     if domain is not None:
         domain.check_within(R, Z, f"the grid of {name}")
         mask = _domain_mask(coils, domain, Rn, phin, Zn, pad, clearance, name)
-    pot, _ = cylindrical_potential(Rn, phin, Zn, nfp=nfp, A=_sample_A(coils, Rn, phin, Zn, mask),
-                                   source=f"{name} coils", mask=mask, degree=degree)
-    field = toroidal_field(pot, pot.grid_box, nfp=nfp, name=name, origin=pot.center, domain=domain)
+    nodes = n_R * n_phi * n_Z if mask is None else int(np.count_nonzero(mask))
+    with phase(f"sampling the vector potential of {name} at {nodes:,} grid nodes"):  # issue #41: said, timed
+        A = _sample_A(coils, Rn, phin, Zn, mask)
+    with phase(f"fitting the {n_R}×{n_phi}×{n_Z} spline of A"):
+        pot, _ = cylindrical_potential(Rn, phin, Zn, nfp=nfp, A=A, source=f"{name} coils", mask=mask, degree=degree)
+        field = toroidal_field(pot, pot.grid_box, nfp=nfp, name=name, origin=pot.center, domain=domain)
     # field.inside stays the grid's box test (native kernels emit that one): a step onto a cell
     # outside the domain's grid is non-finite (NaN coefficients), a reported failure; lines are
     # stopped at the domain itself by trace_to_wall(…, domain)
     field.domain_check, field.inside = _covers(pot), pot.inside
     if domain is not None:
         field.domain_check = lambda points: domain.check_points(points, toroidal=True)
-    return field, _spline_error(field, coils, None, (R[0] + margin, R[1] - margin), (Z[0] + margin, Z[1] - margin),
-                                nfp, domain=domain)
+    with phase("measuring the spline's error against the coils at 400 points"):
+        err = _spline_error(field, coils, None, (R[0] + margin, R[1] - margin), (Z[0] + margin, Z[1] - margin),
+                            nfp, domain=domain)
+    return field, err
 
 
 def wire_points(coils, spacing: float = 0.01) -> np.ndarray:
