@@ -55,6 +55,15 @@ def test_library_phases_report_to_the_active_log_nested_and_in_order():
     assert abs(log.accounted() - sum(r.seconds for r in log.records if r.depth == 0)) < 1e-15
 
 
+def test_under_a_silent_phase_a_nested_one_is_not_indented():
+    buf = io.StringIO()
+    with Phases(stream=buf, terminal=False) as log:
+        with log.phase("reading the field", announce=False), phase("sampling A"):
+            pass
+    assert _lines(buf)[0] == "[vpforms] sampling A …"
+    assert [r.depth for r in log.ordered()] == [0, 1]  # the log keeps the nesting
+
+
 def test_an_error_ends_the_phase_with_a_line_saying_so_and_propagates():
     buf = io.StringIO()
     with Phases(stream=buf, terminal=False) as log:

@@ -179,13 +179,17 @@ class Phases:
             if run.finished or run.announced or self._quiet():
                 return
             run.announced = True
-            indent = "  " * run.depth
+            indent = self._indent(run)
             if not self._is_terminal():
                 self._line(f"{_PREFIX} {indent}{run.name} …")
             elif not run.live:  # the spinner is paused while this phase runs (module docstring)
                 self._console().print(f"{indent}{run.name} …", markup=False)
             else:
                 self._show(run)
+
+    def _indent(self, run: _Running) -> str:
+        """Two spaces per announced phase around ``run`` (a silent parent adds none)."""
+        return "  " * sum(1 for r in self._stack[: run.depth] if r.announced)
 
     def _show(self, run: _Running | None) -> None:
         """The spinner shows ``run`` (None: the innermost announced live phase, or stops)."""
@@ -222,7 +226,7 @@ class Phases:
             self._stack.remove(run)
             if not run.announced or self._quiet():
                 return
-            indent = "  " * run.depth
+            indent = self._indent(run)
             end = f"done in {format_seconds(seconds)}" if ok else f"stopped by an error after {format_seconds(seconds)}"
             if not self._is_terminal():
                 self._line(f"{_PREFIX} {indent}{run.name}: {end}")
