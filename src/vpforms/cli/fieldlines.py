@@ -91,25 +91,27 @@ def _field_source(args):
     from .. import problems
     from ..problems.coil_fields import spline_coil_field
 
-    if args.coils and args.mgrid:
-        raise CLIError("give one of --coils and --mgrid, not both")
+    if sum(bool(v) for v in (args.coils, args.mgrid, args.device)) > 1:
+        raise CLIError("give one of --coils, --mgrid and --device, not two")
     guess = tuple(args.axis_guess) if args.axis_guess else None
+    if args.device:
+        return _device_source(args, guess)
     if args.coils or args.mgrid:
         if args.coils:
             if not (args.R and args.Z):
                 raise CLIError("--coils needs the grid box: --R RMIN,RMAX --Z ZMIN,ZMAX")
             coils = _read_input(read_makegrid, args.coils, "--coils")
             _refuse_wires_in_grid(coils, args.coils, tuple(args.R), tuple(args.Z))
-            field, err = spline_coil_field(coils, tuple(args.R), tuple(args.Z), n_R=args.grid[0], n_phi=args.grid[1],
-                                           n_Z=args.grid[2], name=args.coils)
+            grid = args.grid or COILS_GRID
+            field, err = spline_coil_field(coils, tuple(args.R), tuple(args.Z), n_R=grid[0], n_phi=grid[1],
+                                           n_Z=grid[2], name=args.coils)
             name = f"{args.coils} (spline error {err:.2e})"
         else:
             from ..grids import gridded_field
 
             field = _read_input(gridded_field, args.mgrid, "--mgrid")  # GridFileError: B ≠ ∇×A too
             name = args.mgrid
-        P = field.periods[1] or 2 * math.pi
-        nfp = int(round(2 * math.pi / P))
+        nfp = field_nfp(field)
         if guess is None:
             raise CLIError("--coils/--mgrid need --axis-guess R,Z (a point near the magnetic axis on φ = 0)")
         return field, nfp, guess, None, name, None
@@ -123,14 +125,41 @@ def _field_source(args):
         raise CLIError(f"problem {args.problem!r}: {exc}") from None
     if not str(getattr(prob.field, "coordinates", "")).startswith("toroidal") and key != "tokamak":
         raise CLIError(f"problem {args.problem!r} is not a toroidal field (use tokamak, coil_tokamak or coil_stellarator)")
-    P = prob.field.periods[1] or 2 * math.pi
-    nfp = int(round(2 * math.pi / P))
+    nfp = field_nfp(prob.field)
     guess = guess or prob.axis_guess
     if guess is None:
         raise CLIError(f"problem {args.problem!r} has no axis guess: give --axis-guess R,Z")
     R = np.asarray(cylindrical(prob.x0, True)[0]) if prob.field.coordinates.startswith("toroidal") else \
         np.hypot(prob.x0[:, 0], prob.x0[:, 1])
     return prob.field, nfp, guess, (float(R.min() - guess[0]), float(R.max() - guess[0])), prob.name, prob.wall
+
+
+#: the default spline grid of --coils (n_R, n_φ, n_Z)
+COILS_GRID = (40, 32, 40)
+
+
+def _device_source(args, guess):
+    """--device: the device's coils by their quadrature (simsopt's field) splined on a grid that
+    follows its default domain (:func:`vpforms.problems.devices.grid_field`); the domain is the
+    default wall (the grid exists only there), the axis guess the device's axis at φ₀, the start
+    points span 10–90 % of the distance to the last closed surface (measured on φ = 0)."""
+    from ..coils import device_axis, device_names
+    from ..problems import devices
+
+    key = args.device.strip().lower().replace("-", "").replace("_", "")
+    if key not in device_names():
+        raise CLIError(f"--device {args.device!r}: known devices are {', '.join(device_names())}")
+    grid = tuple(args.grid or devices.GRID)
+    field, err = devices.grid_field(key, grid)
+    R0, Z0 = (float(v) for v in device_axis(key)(args.phi))
+    edge = devices.EDGE[key]
+    name = f"{key}, {'x'.join(map(str, grid))} grid (spline error {err:.1e} on the domain)"
+    return field, field_nfp(field), guess or (R0, Z0), (0.1 * edge, 0.9 * edge), name, field.domain
+
+
+def field_nfp(field) -> int:
+    """The number of field periods of a toroidal field (2π / its φ period)."""
+    return int(round(2 * math.pi / (field.periods[1] or 2 * math.pi)))
 
 
 def _cmd_fieldlines(args, console) -> int:
@@ -153,9 +182,10 @@ def _study(args, console) -> int:
     from ..fieldlines._fixedpoints import _check_section_points
 
     existing = _check_out(args, ("png", FIGURE_SUFFIXES), ("iota_png", FIGURE_SUFFIXES), ("csv", CSV_SUFFIXES))
-    refuse_unless(args, ("R", "Z", "grid"), bool(args.coils), "without --coils (the spline grid of a coils file)")
-    refuse_unless(args, ("problem", "param"), not (args.coils or args.mgrid),
-                  "with --coils/--mgrid (the field is the file's)")
+    refuse_unless(args, ("R", "Z"), bool(args.coils), "without --coils (the spline grid of a coils file)")
+    refuse_unless(args, ("grid",), bool(args.coils or args.device), "without --coils or --device (a spline grid)")
+    refuse_unless(args, ("problem", "param"), not (args.coils or args.mgrid or args.device),
+                  "with --coils/--mgrid/--device (the field is the file's or the device's)")
     refuse_unless(args, ("lines",), not args.radii, "with --radii (it gives the start points)")
     refuse_unless(args, ("island_range", "island_scan"), bool(args.islands), "without --islands M")
     with Phases(quiet=True if getattr(args, "quiet", False) else None) as log:
@@ -175,6 +205,8 @@ def _study(args, console) -> int:
             if v.size % 2 or v.size < 8:
                 raise CLIError("--wall takes R1,Z1,R2,Z2,… (a closed polygon: the last vertex repeats the first)")
             wall = Wall(v[0::2], v[1::2])
+        elif args.device:
+            wall = default_wall  # the device's domain: its grid exists only there
         # a guess outside the field's box is a usage error before anything is built
         _check_section_points(SimpleNamespace(field=field), args.phi, [guess], "the axis guess")
         analytic = args.problem.lower().replace("-", "_") == "tokamak" and not (
@@ -215,7 +247,8 @@ def _study(args, console) -> int:
             sec.to_csv(args.csv)
             what = f"{sec.section.method}, h = {args.h:g}, {args.transits:g} transits"
             R_label = f"starting R ({units})" if units else "starting R"
-            plots.fieldline_figure(sec, axis, chains, wall, title=f"{name}: {what}", path=args.png, units=units,
+            plots.fieldline_figure(sec, axis, chains, wall.wall_at(sec.phi0) if hasattr(wall, "wall_at") else wall,
+                                   title=f"{name}: {what}", path=args.png, units=units,
                                    color_by=Rs, color_label=R_label)
             plots.iota_figure(iota, title=f"{name}: rotational transform and safety factor; {what}",
                               path=args.iota_png, units=units, axis=axis)
@@ -256,10 +289,14 @@ def register(sub) -> None:
     p.add_argument("--param", action="append", metavar="NAME=VALUE", help="problem parameter, e.g. --param eps=0")
     p.add_argument("--coils", default=None, metavar="FILE", help="a MAKEGRID coils file (with --R, --Z, --axis-guess)")
     p.add_argument("--mgrid", default=None, metavar="FILE", help="an mgrid netCDF file (with --axis-guess)")
+    p.add_argument("--device", default=None, metavar="NAME",
+                   help="a stellarator by name: w7x, ncsx or hsx (its coils as simsopt integrates them, splined on a "
+                        "grid that follows its default domain, which is also the wall)")
     p.add_argument("--R", type=_finite_list, default=None, help="R range of the coils' spline grid: RMIN,RMAX")
     p.add_argument("--Z", type=_finite_list, default=None, help="Z range of the coils' spline grid: ZMIN,ZMAX")
-    p.add_argument("--grid", type=lambda s: tuple(int(v) for v in s.split("x")), default=(40, 32, 40),
-                   help="spline grid of --coils: NRxNPHIxNZ (default 40x32x40)")
+    p.add_argument("--grid", type=lambda s: tuple(int(v) for v in s.split("x")), default=None,
+                   help="spline grid of --coils or --device: NRxNPHIxNZ (default 40x32x40 for --coils, 48x96x48 "
+                        "for --device)")
     _add_method_args(p, default_order=2)
     p.add_argument("--h", type=_positive_float, default=0.05, help="step size (default 0.05)")
     p.add_argument("--transits", type=_positive_float, default=100.0, help="toroidal transits (default 100)")
