@@ -35,6 +35,11 @@ from contextlib import contextmanager
 from contextvars import ContextVar
 from dataclasses import dataclass, field
 
+from rich.console import Console
+from rich.status import Status
+from rich.table import Table
+from rich.text import Text
+
 __all__ = ["ENV_QUIET", "LIBRARY_DELAY", "PhaseRecord", "Phases", "phase", "current", "format_seconds"]
 
 #: the environment variable that silences every phase line (records are still kept)
@@ -65,8 +70,6 @@ def stderr_console():
     console: rich stacks their live displays instead of two writers garbling one terminal)."""
     global _CONSOLE
     if _CONSOLE is None:
-        from rich.console import Console
-
         _CONSOLE = Console(stderr=True, highlight=False)
     return _CONSOLE
 
@@ -94,8 +97,6 @@ class _Running:
     timer: threading.Timer | None = field(default=None, repr=False)
 
     def __rich__(self):  # the spinner's text, re-rendered on each refresh: the elapsed time runs
-        from rich.text import Text
-
         return Text(f"{self.name} … {time.perf_counter() - self.t0:.0f} s")
 
 
@@ -169,8 +170,6 @@ class Phases:
         if self.stream is None:
             return stderr_console()
         if self._con is None:  # a given stream (tests): one console of its own
-            from rich.console import Console
-
             self._con = Console(file=self.stream, force_terminal=bool(self.terminal), highlight=False)
         return self._con
 
@@ -200,8 +199,6 @@ class Phases:
             self._stop_spinner()
             return
         if self._status is None:
-            from rich.status import Status
-
             self._status = Status(run, console=self._console(), spinner="dots")
             self._status.start()
         else:
@@ -282,8 +279,6 @@ class Phases:
     def table(self, title: str = "where the time went"):
         """A rich table: each phase (nested ones indented) with its seconds and share of the
         total, the time outside any phase, and the total."""
-        from rich.table import Table
-
         total = self.elapsed
         t = Table(title=title)
         t.add_column("phase")

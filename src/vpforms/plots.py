@@ -17,6 +17,7 @@ Each returns the :class:`matplotlib.figure.Figure` and writes a PNG when ``path`
 from __future__ import annotations
 
 import math
+import textwrap
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -203,8 +204,6 @@ def _wrapped(fig, text: str, fontsize: float, share: float = 0.96) -> str:
     a character of a sans-serif font at ``fontsize`` pt is ≤ 0.6·fontsize pt wide on average
     (DejaVu Sans: 0.55 for digits and lower case), so a line holds width/(0.6·fontsize) of them.
     Existing line breaks are kept; "h = 0.05" is never split at its "=" (no-break spaces)."""
-    import textwrap
-
     width_pt = fig.get_figwidth() * 72.0 * share
     chars = max(int(width_pt / (0.6 * fontsize)), 12)
     text = str(text).replace(" = ", "\u00a0=\u00a0")

@@ -11,10 +11,12 @@ from __future__ import annotations
 
 import math
 import time
+from types import SimpleNamespace
 
 import numpy as np
 
 from .. import plots
+from .._phases import LIBRARY_DELAY, Phases
 from ..coils import read_makegrid
 from ..fieldlines import (
     Wall,
@@ -27,6 +29,7 @@ from ..fieldlines import (
     trace_to_wall,
 )
 from ..fieldlines._domain import StartPointError
+from ..fieldlines._fixedpoints import _check_section_points
 from ._common import (
     CLIError,
     _add_method_args,
@@ -176,11 +179,6 @@ def _study(args, console) -> int:
     it took (``--quiet`` or ``VPFORMS_QUIET=1``: silent), and the summary's timing table lists every
     phase — nested ones, such as a spline grid's sampling or a native kernel's compilation, under
     theirs — with the time outside them and the total."""
-    from types import SimpleNamespace
-
-    from .._phases import LIBRARY_DELAY, Phases
-    from ..fieldlines._fixedpoints import _check_section_points
-
     existing = _check_out(args, ("png", FIGURE_SUFFIXES), ("iota_png", FIGURE_SUFFIXES), ("csv", CSV_SUFFIXES))
     refuse_unless(args, ("R", "Z"), bool(args.coils), "without --coils (the spline grid of a coils file)")
     refuse_unless(args, ("grid",), bool(args.coils or args.device), "without --coils or --device (a spline grid)")
