@@ -17,7 +17,7 @@ import numpy as np
 
 from .. import plots
 from .._phases import LIBRARY_DELAY, Phases
-from ..coils import read_makegrid
+from ..coils import device_axis, device_names, read_makegrid
 from ..fieldlines import (
     Wall,
     cylindrical,
@@ -146,7 +146,6 @@ def _device_source(args, guess):
     follows its default domain (:func:`vpforms.problems.devices.grid_field`); the domain is the
     default wall (the grid exists only there), the axis guess the device's axis at φ₀, the start
     points span 10–90 % of the distance to the last closed surface (measured on φ = 0)."""
-    from ..coils import device_axis, device_names
     from ..problems import devices
 
     key = args.device.strip().lower().replace("-", "").replace("_", "")

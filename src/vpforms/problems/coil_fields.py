@@ -31,6 +31,7 @@ from functools import lru_cache
 
 import jax
 import numpy as np
+from scipy.spatial import cKDTree
 
 from .._phases import phase
 from .._vecpot import SumPotential, curl_of
@@ -147,8 +148,6 @@ def wire_points(coils, spacing: float = 0.01) -> np.ndarray:
 def _domain_mask(coils, domain: ToroidalDomain, R, phi, Z, pad: int, clearance: float | None, name: str) -> np.ndarray:
     """The nodes of a grid that follows ``domain`` (:func:`spline_coil_field`): the dilated cells
     that meet it, their whole φ lines, less the nodes within ``clearance`` of a wire."""
-    from scipy.spatial import cKDTree
-
     near_domain = domain.node_mask(R, phi, Z, pad=pad)
     RR, PP, ZZ = np.meshgrid(R, phi, Z, indexing="ij")
     xyz = np.stack([RR * np.cos(PP), RR * np.sin(PP), ZZ], axis=-1).reshape(-1, 3)

@@ -41,6 +41,7 @@ import numpy as np
 from ..coils import device, device_axis, device_data, device_domain
 from ..toroidal import box_from_cylindrical, to_toroidal, toroidal_field
 from ._base import Problem
+from .coil_fields import spline_coil_field
 
 __all__ = ["GRID", "default", "grid_box", "grid_field", "make"]
 
@@ -116,8 +117,6 @@ def grid_field(name: str, grid: tuple[int, int, int] = GRID, degree: int = 3, ru
     (u = R²/2, φ, Z), every backend (the native one included). spline_error is max |B_spline − B|
     / max |B| at 400 seeded points of the domain (the worst sit at its edge, nearest the coils).
     Cached per arguments within a process."""
-    from .coil_fields import spline_coil_field
-
     key = device_data(name)["name"]
     R, Z = grid_box(key)
     n_R, n_phi, n_Z = (int(g) for g in grid)
