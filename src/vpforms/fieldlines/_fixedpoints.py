@@ -26,6 +26,7 @@ from .._errors import RESULTS, ConvergenceError
 from ..diagnostics._surfaces import wrap_angle
 from ._domain import check_radii, check_starts
 from ._geometry import is_toroidal
+from ._native_map import native_crossings, native_power, native_value_and_jac, native_winding
 from ._returnmap import ReturnMap, return_map, status_message
 
 __all__ = ["FixedPoint", "find_fixed_point", "magnetic_axis", "island_chain", "scan_fixed_points"]
@@ -94,22 +95,36 @@ def _value_and_jac(P: ReturnMap, m: int):
     return cache[key]
 
 
-def find_fixed_point(P: ReturnMap, guess: Any, m: int = 1, *, tol: float = 1e-12, max_iter: int = 30) -> FixedPoint:
+def find_fixed_point(P: ReturnMap, guess: Any, m: int = 1, *, tol: float = 1e-12, max_iter: int = 30,
+                     backend: str = "auto") -> FixedPoint:
     """Newton's method for Pᵐ(z) = z from ``guess`` = (R, Z) (module docstring).
 
     Converged when |Pᵐ(z) − z| ≤ tol·(1 + |z|). Raises :class:`~vpforms.ConvergenceError` (one line,
     with the last residual) when Newton does not converge, and ``RuntimeError`` when the map itself
-    fails (a line that does not return, a failed step)."""
+    fails (a line that does not return, a failed step).
+
+    ``backend``: "auto" (default) evaluates Pᵐ natively where the native backend runs the method,
+    DPᵐ by central differences (:mod:`._native_map`: seconds where the JAX map's exact
+    forward-mode derivative through m periods compiles for minutes), else by JAX; "jax" or
+    "native" forces one."""
+    if backend not in ("auto", "jax", "native"):
+        raise ValueError(f"backend must be 'auto', 'jax' or 'native'; got {backend!r}")
     if isinstance(m, bool) or int(m) != m or int(m) < 1:
         raise ValueError(f"m must be a positive integer; got {m!r}")
     m = int(m)
     z = np.asarray(guess, float).reshape(-1)
     if z.shape != (2,) or not np.all(np.isfinite(z)):
         raise ValueError(f"guess must be a finite (R, Z) pair; got {guess!r}")
-    vj = _value_and_jac(P, m)
+    native = [native_value_and_jac(P, m)] if backend in ("auto", "native") else [None]
 
     def evaluate(z):
-        z2, st, J = vj(jnp.asarray(z))
+        got = native[0](z) if native[0] is not None else None
+        if got is None:  # the JAX map (exact DPᵐ by forward mode)
+            if backend == "native":
+                raise ValueError("backend='native': the native backend does not run this method")
+            native[0] = None
+            got = _value_and_jac(P, m)(jnp.asarray(z))
+        z2, st, J = got
         st = int(st)
         if st != RESULTS.successful:
             return None, st, None
@@ -147,7 +162,10 @@ def find_fixed_point(P: ReturnMap, guess: Any, m: int = 1, *, tol: float = 1e-12
                                f"not converge in {max_iter} iterations; last residual {res:.3g} at "
                                f"({z[0]:.6g}, {z[1]:.6g})")
     residue = (2.0 - float(np.trace(J))) / 4.0
-    orbit = P.orbit(z, m - 1) if m > 1 else z[None, :]
+    orbit = z[None, :]
+    if m > 1:
+        got = native_crossings(P, z, m - 1) if native[0] is not None else None
+        orbit = np.vstack([z, got[0][0]]) if got is not None else P.orbit(z, m - 1)
     return FixedPoint(R=float(z[0]), Z=float(z[1]), m=m, residual=res, iterations=it, jacobian=J, residue=residue,
                       kind=_kind(residue), orbit=orbit, phi0=P.phi0, nfp=P.nfp)
 
@@ -218,21 +236,25 @@ def _check_section_points(method: Any, phi: float, rz: Any, what: str) -> None:
 
 
 def magnetic_axis(method: Any, guess: Any, h: float, phi: float = 0.0, nfp: int = 1, *, tol: float = 1e-12,
-                  max_iter: int = 30, return_map_: ReturnMap | None = None) -> FixedPoint:
+                  max_iter: int = 30, return_map_: ReturnMap | None = None, backend: str = "auto") -> FixedPoint:
     """The magnetic axis on the section φ = phi: the fixed point of the return map P (m = 1) of
     ``method`` with step h, from ``guess`` = (R, Z), with its type and its rotational transform.
 
     ι of the axis comes from the tangent map M = DP: cos(2π ι/nfp) = tr M / 2 gives ι up to the branch
     (ι/nfp ↦ k ± ν), which is chosen by the turning of a tangent vector followed for 8 field periods;
     it is the limit of the ι of the lines that approach the axis (the q₀ of a tokamak). A guess with
-    R ≤ 0 or outside the field's box or domain is refused up front (ValueError saying so)."""
+    R ≤ 0 or outside the field's box or domain is refused up front (ValueError saying so).
+    ``backend`` as :func:`find_fixed_point` ("auto": native traces where they run — the branch's
+    winding too, read at 8 planes per period from a neighbouring line)."""
     _check_section_points(method, phi, [guess], "the axis guess")
     P = return_map_ or return_map(method, h, phi, nfp, guess=guess)
-    fp = find_fixed_point(P, guess, 1, tol=tol, max_iter=max_iter)
+    fp = find_fixed_point(P, guess, 1, tol=tol, max_iter=max_iter, backend=backend)
     if fp.kind != "O":
         return fp
     nu0 = math.acos(max(-1.0, min(1.0, fp.trace / 2))) / (2 * math.pi)  # ∈ [0, 1/2]
-    rough = _tangent_winding(P, np.array([fp.R, fp.Z]), 8) * P.period / (2 * math.pi)  # turns per period
+    z = np.array([fp.R, fp.Z])
+    wind = native_winding(P, z, 8) if backend != "jax" else None
+    rough = (wind if wind is not None else _tangent_winding(P, z, 8)) * P.period / (2 * math.pi)  # turns per period
     sgn = P.sign
     k = math.floor(rough)
     cands = [c for kk in (k - 1, k, k + 1) for c in (kk + nu0, kk + 1 - nu0)]
@@ -281,7 +303,8 @@ def island_chain(method: Any, m: int, h: float, R: Any, Z: float = 0.0, phi: flo
         minimal = True
         for d in range(1, m):
             if m % d == 0:
-                z2, st = P.power(jnp.array([fp.R, fp.Z]), d)
+                got = native_power(P, [fp.R, fp.Z], d)
+                z2, st = (got[0][0], got[1][0]) if got is not None else P.power(jnp.array([fp.R, fp.Z]), d)
                 if int(st) == RESULTS.successful and np.linalg.norm(np.asarray(z2) - [fp.R, fp.Z]) < 1e-8:
                     minimal = False
         if minimal:
