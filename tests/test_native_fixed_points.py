@@ -46,3 +46,21 @@ def test_native_map_and_axis_equal_the_jax_ones_on_the_tokamak():
     aj = magnetic_axis(m, guess, 0.05, backend="jax")
     assert abs(an.R - aj.R) < 1e-10 and abs(an.Z - aj.Z) < 1e-10
     assert abs(an.iota - aj.iota) < 1e-7 and an.kind == aj.kind == "O"
+
+
+@pytest.mark.slow  # the JAX ι scan compiles for ~15 s
+def test_native_iota_equals_the_jax_iota_on_the_tokamak():
+    """ι read at 64 planes per turn from native traces against the per-step JAX sums: the same
+    weighted Birkhoff limits (agreement far inside either's own error estimate)."""
+    from vpforms.fieldlines import rotational_transform
+
+    prob = problems.get("tokamak", coordinates="toroidal")
+    m = vpforms.compose(vpforms.scheme(prob.field, "SE+SE", recover=False), order=2)
+    ax = magnetic_axis(m, prob.axis_guess, 0.05)
+    got = {b: rotational_transform(m, prob.x0[:3], 0.05, 4000, ax, backend=b, progress=False) for b in ("native", "jax")}
+    n, j = got["native"], got["jax"]
+    assert np.all(n.status == 0) and np.all(j.status == 0)
+    assert np.all(np.abs(n.iota - j.iota) <= 1e-5 + 0.1 * j.error), (n.iota, j.iota, j.error)
+    np.testing.assert_allclose(n.transits, j.transits, rtol=2e-3)  # the last plane vs the last step
+    with pytest.raises(ValueError, match="backend must be 'auto', 'jax' or 'native'"):
+        rotational_transform(m, prob.x0[:1], 0.05, 10, ax, backend="C")

@@ -33,12 +33,14 @@ from .._errors import RESULTS
 from .._integrate import _check_run, integrate
 from .._progress import _Bar
 from .._recovery import bare_first
+from ..backends import select_backend
 from ..backends.jax_runner import _StepFn, auto_chunk_size
 from ..diagnostics._common import _chunks, _pad
 from ..diagnostics._surfaces import wrap_angle
 from ._domain import check_off_axis, check_radii, check_starts
 from ._geometry import cylindrical, is_toroidal
 from ._returnmap import ReturnMap
+from ._sections import toroidal_section
 
 __all__ = ["AxisCurve", "Iota", "axis_curve", "rotational_transform", "iota_profile", "birkhoff_weight"]
 
@@ -103,10 +105,14 @@ def axis_curve(method: Any, axis: Any, h: float, *, harmonics: int = 8) -> AxisC
     return AxisCurve.fit(phi, R, Z, axis.nfp, harmonics)
 
 
-def _as_axis(axis: Any) -> AxisCurve:
+def _as_axis(axis: Any, method: Any = None, h: float | None = None) -> AxisCurve:
     if isinstance(axis, AxisCurve):
         return axis
     if hasattr(axis, "R") and hasattr(axis, "Z") and hasattr(axis, "m"):  # a FixedPoint: the axis at φ₀
+        if method is not None and getattr(axis, "nfp", 1) > 1:
+            # a stellarator's axis moves with φ (W7-X's by 0.7 m in R over a period): the circle
+            # through its point on φ₀ need not lie inside a line's torus at other φ
+            return axis_curve(method, axis, h, harmonics=16)
         return AxisCurve.constant(axis.R, axis.Z)
     a = np.asarray(axis, float).reshape(-1)
     if a.shape != (2,) or not np.all(np.isfinite(a)) or not a[0] > 0:
@@ -177,7 +183,7 @@ def _iota_scan(step_fn, seg, toroidal, axis, x, st, sums, n0, N, h):
 
 
 def rotational_transform(method: Any, x0: Any, h: float, n_steps: int, axis: Any, *, chunk_size: int | None = None,
-                         progress: bool | str = "auto") -> Iota:
+                         progress: bool | str = "auto", backend: str = "auto") -> Iota:
     """ι of the field lines from x0 (field coordinates, Cartesian or (u, φ, Z)) over n_steps steps
     of h, by the weighted Birkhoff average of the poloidal angle about ``axis`` (an
     :class:`AxisCurve`, the :class:`~vpforms.fieldlines.FixedPoint` of :func:`magnetic_axis`, or an
@@ -187,7 +193,9 @@ def rotational_transform(method: Any, x0: Any, h: float, n_steps: int, axis: Any
     pts, _, h, n_steps = _check_run(method, x0, h, n_steps, 0.0)
     if n_steps < 2:
         raise ValueError(f"n_steps must be ≥ 2 for a Birkhoff average; got {n_steps}")
-    ax = _as_axis(axis)
+    if backend not in ("auto", "jax", "native"):
+        raise ValueError(f"backend must be 'auto', 'jax' or 'native'; got {backend!r}")
+    ax = _as_axis(axis, method, h)
     field = getattr(method, "field", None)
     toroidal = is_toroidal(field)
     if field is not None:  # R > 0, in the field's domain, off the axis: else ι would be NaN or 0
@@ -196,6 +204,9 @@ def rotational_transform(method: Any, x0: Any, h: float, n_steps: int, axis: Any
         Ra, Za = jax.vmap(ax)(phi)
         check_off_axis(field, np.asarray(R), np.asarray(Z), np.asarray(Ra), np.asarray(Za))
     N = pts.shape[0]
+    if backend != "jax" and select_backend(method, backend)[0] == "native":
+        sums_all, status = _native_sums(method, pts, h, n_steps, ax, toroidal, progress)
+        return _iota_result(sums_all, status, pts, toroidal, n_steps)
     C = min(N, chunk_size or auto_chunk_size(N, 8))
     seg = 1024 if n_steps >= 1024 else 1 << (n_steps - 1).bit_length()  # few compiled lengths
     def run(m):
@@ -223,6 +234,43 @@ def rotational_transform(method: Any, x0: Any, h: float, n_steps: int, axis: Any
 
     # the bare method first; the recovering one only if a bare step failed (as poincare_section)
     sums_all, status = bare_first(run, method, lambda r: bool(np.all(r[1] == RESULTS.successful)))
+    return _iota_result(sums_all, status, pts, toroidal, n_steps)
+
+
+#: half-planes per toroidal turn at which the native path reads θ and φ
+PLANES = 64
+
+
+def _native_sums(method, pts, h, n_steps, ax, toroidal, progress):
+    """The six Birkhoff sums of :func:`_iota_scan` per line, from native crossings of PLANES
+    half-planes per turn: increments δθ (about the axis curve at the plane's φ) and δφ = ±2π/PLANES
+    between successive planes, the start point counted as the first reading."""
+    sec = toroidal_section(method, pts, h, n_steps, phi=0.0, nfp=PLANES, progress=progress, backend="native")
+    status = np.asarray(sec.status, dtype=np.int32)
+    R0, phi0, Z0 = (np.asarray(a) for a in cylindrical(jnp.asarray(pts), toroidal))
+    Ra_all, Za_all = (np.asarray(a) for a in jax.vmap(ax)(jnp.asarray(np.append(phi0, sec.phi))))
+    Ra0, Za0, Ra, Za = Ra_all[: len(pts)], Za_all[: len(pts)], Ra_all[len(pts):], Za_all[len(pts):]
+    sums = np.zeros((len(pts), 6))
+    for i in range(len(pts)):
+        k = np.flatnonzero((sec.line == i) & (sec.t > 0))
+        k = k[np.argsort(sec.t[k])]
+        if k.size < 2:
+            if status[i] == RESULTS.successful:
+                raise ValueError(f"line {i} crossed {k.size} of the {PLANES} half-planes per turn in {n_steps} steps: "
+                                 "too few steps for ι")
+            continue
+        th = np.arctan2(np.append(Z0[i] - Za0[i], sec.Z[k] - Za[k]), np.append(R0[i] - Ra0[i], sec.R[k] - Ra[k]))
+        ph = np.append(phi0[i], sec.phi[k])
+        dth, dph = np.asarray(wrap_angle(np.diff(th))), np.asarray(wrap_angle(np.diff(ph)))
+        n = dth.size
+        w = np.asarray(birkhoff_weight((np.arange(n) + 0.5) / n))
+        half = n // 2
+        wh = np.asarray(birkhoff_weight((np.arange(half) + 0.5) / max(half, 1)))
+        sums[i] = [w @ dth, w @ dph, wh @ dth[:half], wh @ dph[:half], dth.sum(), dph.sum()]
+    return sums, status
+
+
+def _iota_result(sums_all, status, pts, toroidal, n_steps) -> Iota:
     ok = status == RESULTS.successful
     with np.errstate(divide="ignore", invalid="ignore"):
         iota = np.where(ok, sums_all[:, 0] / sums_all[:, 1], np.nan)
