@@ -23,8 +23,10 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._errors import RESULTS, ConvergenceError
+from ..backends import select_backend
 from ..diagnostics._surfaces import wrap_angle
-from ._domain import check_radii, check_starts
+from ._axis_search import REFINE_TRANSITS, _value_and_jac, search_axis
+from ._domain import check_radii, check_starts, rz_box
 from ._geometry import is_toroidal
 from ._native_map import native_crossings, native_power, native_value_and_jac, native_winding
 from ._returnmap import ReturnMap, return_map, status_message
@@ -41,6 +43,9 @@ class FixedPoint:
     ``kind`` "O" (elliptic), "X" (hyperbolic) or "parabolic"; ``orbit`` (m, 2) the chain
     z, P(z), …, Pᵐ⁻¹(z); ``iota`` the rotational transform of the linearised motion about the point,
     per toroidal turn (the axis's ι: elliptic points of m = 1 only; NaN otherwise).
+    ``converged`` is False only for an axis returned by ``magnetic_axis(…, on_failure="guess")``
+    after a failed search (``note`` says why and what R, Z are then); ``evaluations`` counts the
+    points carried one period by the search (:mod:`._axis_search`; 0 where not counted).
     """
 
     R: float
@@ -56,6 +61,13 @@ class FixedPoint:
     nfp: int
     iota: float = math.nan
     notes: tuple = dc_field(default_factory=tuple)
+    converged: bool = True
+    evaluations: int = 0
+
+    @property
+    def note(self) -> str:
+        """The notes in one line ("" for a converged fixed point without remarks)."""
+        return "; ".join(self.notes)
 
     @property
     def trace(self) -> float:
@@ -79,22 +91,6 @@ def _kind(res: float) -> str:
     return "parabolic"
 
 
-def _value_and_jac(P: ReturnMap, m: int):
-    key = ("vj", m)
-    cache = P.__dict__.setdefault("_jit_cache", {})
-    if key not in cache:
-        def both(z):  # Pᵐ(z), its status and DPᵐ(z) (exact, forward mode; one trace of the map)
-            def f(y):
-                z2, st = P.power(y, m)
-                return z2, (z2, st)
-
-            J, (z2, st) = jax.jacfwd(f, has_aux=True)(z)
-            return z2, st, J
-
-        cache[key] = jax.jit(both)
-    return cache[key]
-
-
 def find_fixed_point(P: ReturnMap, guess: Any, m: int = 1, *, tol: float = 1e-12, max_iter: int = 30,
                      backend: str = "auto") -> FixedPoint:
     """Newton's method for Pᵐ(z) = z from ``guess`` = (R, Z) (module docstring).
@@ -115,7 +111,12 @@ def find_fixed_point(P: ReturnMap, guess: Any, m: int = 1, *, tol: float = 1e-12
     z = np.asarray(guess, float).reshape(-1)
     if z.shape != (2,) or not np.all(np.isfinite(z)):
         raise ValueError(f"guess must be a finite (R, Z) pair; got {guess!r}")
-    native = [native_value_and_jac(P, m)] if backend in ("auto", "native") else [None]
+    # native where the native backend runs the method (decided without a trace: a JAX section run
+    # only to learn that it is not native would compile the JAX map for nothing)
+    use_native = backend != "jax" and select_backend(P.method, "auto")[0] == "native"
+    if backend == "native" and not use_native:
+        raise ValueError("backend='native': the native backend does not run this method")
+    native = [native_value_and_jac(P, m)] if use_native else [None]
 
     def evaluate(z):
         got = native[0](z) if native[0] is not None else None
@@ -235,32 +236,86 @@ def _check_section_points(method: Any, phi: float, rz: Any, what: str) -> None:
     check_starts(field, pts, what, "is", indexed)
 
 
+def _inside_test(method: Any, phi: float):
+    """z ↦ whether the section point z = (R, Z) has R > 0 and lies in the field's box and domain."""
+    def inside(z) -> bool:
+        try:
+            _check_section_points(method, phi, [z], "point")
+        except ValueError:
+            return False
+        return bool(np.all(np.isfinite(z)))
+
+    return inside
+
+
+def _box_scale(method: Any) -> float:
+    """The (R, Z) size of the field's box (1 where it has none): the search's length scale."""
+    box = rz_box(getattr(method, "field", None))
+    if box is None:
+        return 1.0
+    size = max(box[0][1] - box[0][0], box[1][1] - box[1][0])
+    return float(size) if math.isfinite(size) and size > 0 else 1.0
+
+
+def _axis_iota(P: ReturnMap, z: np.ndarray, trace: float, native: bool) -> float:
+    """ι of the linearised motion about the elliptic fixed point z of P (magnetic_axis's docstring)."""
+    nu0 = math.acos(max(-1.0, min(1.0, trace / 2))) / (2 * math.pi)  # ∈ [0, 1/2]
+    wind = native_winding(P, z, 8) if native else None
+    rough = (wind if wind is not None else _tangent_winding(P, z, 8)) * P.period / (2 * math.pi)  # turns per period
+    if not math.isfinite(rough):
+        return math.nan
+    k = math.floor(rough)
+    cands = [c for kk in (k - 1, k, k + 1) for c in (kk + nu0, kk + 1 - nu0)]
+    nu = min(cands, key=lambda c: abs(c - rough))
+    return P.sign * nu * P.nfp  # per toroidal turn, signed by the direction of φ along B
+
+
 def magnetic_axis(method: Any, guess: Any, h: float, phi: float = 0.0, nfp: int = 1, *, tol: float = 1e-12,
-                  max_iter: int = 30, return_map_: ReturnMap | None = None, backend: str = "auto") -> FixedPoint:
+                  max_iter: int = 30, return_map_: ReturnMap | None = None, backend: str = "auto",
+                  refine: int = 3, transits: int = REFINE_TRANSITS, on_failure: str = "raise") -> FixedPoint:
     """The magnetic axis on the section φ = phi: the fixed point of the return map P (m = 1) of
     ``method`` with step h, from ``guess`` = (R, Z), with its type and its rotational transform.
+
+    The search is bounded and robust (:mod:`._axis_search`): the guess is first refined by at most
+    ``refine`` rounds of Birkhoff-weighted averages of the orbit of ``transits`` returns (the centre
+    of a closed curve about the axis, O(r²) off the axis for a guess r off), then damped Newton
+    (trust radius, step halving on the residual) runs at most ``max_iter`` iterations. The budget is
+    counted in map evaluations, never in seconds: the result does not depend on the machine's load.
+    When the search fails, ``on_failure="raise"`` (default) raises
+    :class:`~vpforms.ConvergenceError` (one line: the guess, the last residual, what to try);
+    ``on_failure="guess"`` returns the point of least residual seen (or the refined guess) as a
+    :class:`FixedPoint` with ``converged=False`` and a ``note`` saying so, so that a study can go on
+    from it (its kind and ι from the tangent map there where the map returns, else kind "unknown").
 
     ι of the axis comes from the tangent map M = DP: cos(2π ι/nfp) = tr M / 2 gives ι up to the branch
     (ι/nfp ↦ k ± ν), which is chosen by the turning of a tangent vector followed for 8 field periods;
     it is the limit of the ι of the lines that approach the axis (the q₀ of a tokamak). A guess with
-    R ≤ 0 or outside the field's box or domain is refused up front (ValueError saying so).
+    R ≤ 0 or outside the field's box or domain is refused up front (ValueError saying "outside").
     ``backend`` as :func:`find_fixed_point` ("auto": native traces where they run — the branch's
     winding too, read at 8 planes per period from a neighbouring line)."""
+    if on_failure not in ("raise", "guess"):
+        raise ValueError(f"on_failure must be 'raise' or 'guess'; got {on_failure!r}")
     _check_section_points(method, phi, [guess], "the axis guess")
-    P = return_map_ or return_map(method, h, phi, nfp, guess=guess)
-    fp = find_fixed_point(P, guess, 1, tol=tol, max_iter=max_iter, backend=backend)
-    if fp.kind != "O":
-        return fp
-    nu0 = math.acos(max(-1.0, min(1.0, fp.trace / 2))) / (2 * math.pi)  # ∈ [0, 1/2]
-    z = np.array([fp.R, fp.Z])
-    wind = native_winding(P, z, 8) if backend != "jax" else None
-    rough = (wind if wind is not None else _tangent_winding(P, z, 8)) * P.period / (2 * math.pi)  # turns per period
-    sgn = P.sign
-    k = math.floor(rough)
-    cands = [c for kk in (k - 1, k, k + 1) for c in (kk + nu0, kk + 1 - nu0)]
-    nu = min(cands, key=lambda c: abs(c - rough))
-    iota = sgn * nu * nfp  # per toroidal turn, signed by the direction of φ along B
-    return FixedPoint(**{**fp.__dict__, "iota": iota})
+    g = np.asarray(guess, float).reshape(-1)
+    if g.shape != (2,) or not np.all(np.isfinite(g)):
+        raise ValueError(f"guess must be a finite (R, Z) pair; got {guess!r}")
+    P = return_map_ or return_map(method, h, phi, nfp, guess=g)
+    found = search_axis(P, g, inside=_inside_test(method, P.phi0), scale=_box_scale(method), tol=tol,
+                        max_iter=max_iter, refine=refine, transits=transits, backend=backend)
+    if not found.converged and on_failure == "raise":
+        raise ConvergenceError(found.message)
+    z, J = found.z, found.jacobian
+    known = bool(np.all(np.isfinite(J)))
+    residue = (2.0 - float(np.trace(J))) / 4.0 if known else math.nan
+    kind = _kind(residue) if known else "unknown"
+    notes = () if found.converged else (
+        f"not converged: {found.message.removeprefix('the magnetic axis: ')}; R, Z are the "
+        + ("point of least residual found" if known else "guess") + " and the study goes on from it",)
+    native = found.native
+    iota = _axis_iota(P, z, float(np.trace(J)), native) if kind == "O" else math.nan
+    return FixedPoint(R=float(z[0]), Z=float(z[1]), m=1, residual=found.residual, iterations=found.iterations,
+                      jacobian=J, residue=residue, kind=kind, orbit=z[None, :], phi0=P.phi0, nfp=P.nfp, iota=iota,
+                      notes=notes, converged=found.converged, evaluations=found.evaluations)
 
 
 def scan_fixed_points(P: ReturnMap, m: int, R: Any, Z: float = 0.0, *, tol: float = 1e-10,
