@@ -18,8 +18,9 @@ method's exact volume preservation: invariant circles of the discrete map stay t
 
 from __future__ import annotations
 
-from ._fixedpoints import FixedPoint, find_fixed_point, island_chain, magnetic_axis, scan_fixed_points
+from ._fixedpoints import FixedPoint, find_fixed_point, magnetic_axis
 from ._geometry import cylindrical, is_toroidal
+from ._islands import island_chain, scan_fixed_points
 from ._iota import AxisCurve, Iota, axis_curve, birkhoff_weight, iota_profile, rotational_transform
 from ._returnmap import ReturnMap, return_map
 from ._sections import ToroidalSection, toroidal_section

@@ -20,8 +20,15 @@ field's map is costly. Two bounded stages make the search robust:
    halvings). dz = −(DP − I)⁻¹F, its length capped by a trust radius Δ (start: the last spread, or
    a tenth of the field's (R, Z) box; doubled after a full step that hit the cap, set to the
    accepted length after a halving), then halved until Armijo's sufficient decrease
-   |F(z + λ dz)| ≤ (1 − 10⁻⁴λ)|F(z)| holds. A trial point outside the field's box or domain, or one
-   whose line does not return, counts as no decrease. Converged when |F| ≤ tol·(1 + |z|).
+   |F(z + λ dz)| ≤ (1 − 10⁻⁴λ)|F(z)| holds. A trial point outside the field's box or domain, one
+   whose line does not return, or one farther from Newton's start than a few refinement spreads
+   (at least a tenth of the box) counts as no decrease: far from a fixed point |F| is a poor guide
+   (beside a singular axis — a current filament — a point at the box's edge can have the smaller
+   residual). Converged when |F| ≤ tol·(1 + |z|).
+
+A failed search answers the refined guess (the orbit's centre: the best estimate there is where
+Newton cannot converge, e.g. on a filament where P is not smooth), or Newton's point of least
+residual where that residual is below :data:`NEWTON_WIN` times the refined guess's.
 
 The budget is the number of map evaluations that these bounds allow — the same on a loaded and an
 idle machine; :class:`AxisSearch` reports the evaluations used (one evaluation: one point carried
@@ -53,6 +60,9 @@ REFINE_GAIN = 0.5
 REFINE_TRANSITS = 32
 #: Armijo's constant of the sufficient decrease of |F|
 ARMIJO = 1e-4
+#: a failed search answers Newton's point of least residual only if that residual is below this
+#: fraction of the refined guess's (clear progress towards a fixed point), else the refined guess
+NEWTON_WIN = 1e-3
 
 
 def _value_and_jac(P: ReturnMap, m: int):
@@ -150,8 +160,8 @@ class AxisSearch:
     of least residual seen), ``converged``, ``residual`` |P(z) − z| (NaN where the line from z
     fails), ``jacobian`` DP(z) (NaN where unknown), Newton ``iterations``, map ``evaluations``,
     ``refined`` the guess after the orbit averages, ``rounds`` of them kept, ``native`` whether
-    native traces evaluated the map, ``message`` (one line:
-    why not converged, and what to try)."""
+    native traces evaluated the map, ``message`` (one line: why not converged, and which point
+    ``z`` is then)."""
 
     z: np.ndarray
     converged: bool
@@ -208,38 +218,53 @@ def search_axis(P: ReturnMap, guess: Any, *, inside: Callable[[np.ndarray], bool
 
     where = f"from the guess {fmt(g)}" + (f" (refined by {rounds} orbit average{'s' * (rounds > 1)} to "
                                            f"{fmt(refined)})" if rounds else "")
-    hint = ("try a guess nearer the axis (the centre of the innermost closed curve of a Poincaré section), "
-            "a smaller step h, or on_failure='guess' to go on from the best point")
-
     def result(zb, conv, res, J, it, msg=""):
         return AxisSearch(z=np.asarray(zb, float), converged=conv, residual=float(res), jacobian=J, iterations=it,
                           evaluations=ev.evaluations, refined=refined, rounds=rounds, native=ev.native,
                           message=msg)
 
     F, st, J = ev.value_and_jac(z)
-    if F is None and rounds:  # the refined point fails where the guess may not: fall back to the guess
+    # the answer of a failed search unless Newton gets far lower: the refined guess, even where the
+    # map fails at it (beside a filament the orbit's centre is still the best estimate there is)
+    answer = (z, float(np.linalg.norm(F)), J) if F is not None else (z, math.nan, nan_j)
+    what = "the refined guess" if rounds else "the guess"
+    if F is None and rounds:  # Newton needs the map: from the guess, where it may return
+        why_refined = f"the return map fails at the refined guess {fmt(z)}: {status_message(st)}"
         z = g.copy()
         F, st, J = ev.value_and_jac(z)
+        where = f"from the guess {fmt(g)} [{why_refined}]"
     if F is None:
-        return result(z, False, math.nan, nan_j, 0,
-                      f"the magnetic axis: the return map fails {where}: {status_message(st)}; {hint}")
+        return result(answer[0], False, answer[1], answer[2], 0,
+                      f"the return map fails {where}: {status_message(st)}; best: {what} {fmt(answer[0])}")
     res = float(np.linalg.norm(F))
-    best = (z, res, J)
-    radius = spread if math.isfinite(spread) and spread > 0 else 0.1 * scale
+    start = (z, res, J)
+    best = start
+    # Newton stays in a disc about its start: a few refinement spreads, or a tenth of the box (a
+    # quarter without refinement); far from a fixed point |F| is a poor guide (near a singular axis,
+    # e.g. a filament, a point at the box's edge can have the smaller residual)
+    region = 4.0 * spread if math.isfinite(spread) else 0.0
+    region = max(region, (0.1 if rounds else 0.25) * scale)
+    radius = min(spread, region) if math.isfinite(spread) and spread > 0 else 0.1 * scale
     radius = max(radius, 1e-6 * scale)
+
+    def failed(it, why):
+        newton = best[1] <= NEWTON_WIN * start[1]
+        zb, rb, Jb = best if newton else answer
+        which = "Newton's point of least residual" if newton else what
+        rtext = f"residual {rb:.3g}" if math.isfinite(rb) else "where the map fails"
+        return result(zb, False, rb, Jb, it, f"{why}; best: {which} {fmt(zb)}, {rtext}")
+
     it = 0
     while not res <= tol * (1.0 + np.linalg.norm(z)):
         if it >= max_iter:
-            return result(best[0], False, best[1], best[2], it,
-                          f"the magnetic axis: Newton {where} did not converge in {max_iter} iterations; last "
-                          f"residual {res:.3g} at {fmt(z)} (least {best[1]:.3g} at {fmt(best[0])}); {hint}")
+            return failed(it, f"Newton {where} did not converge in {max_iter} iterations; last residual {res:.3g} "
+                              f"at {fmt(z)}")
         it += 1
         try:
             dz = -np.linalg.solve(J - np.eye(2), F)
         except np.linalg.LinAlgError:
-            return result(best[0], False, best[1], best[2], it,
-                          f"the magnetic axis: Newton {where} stopped at {fmt(z)}: DP − I is singular (a parabolic "
-                          f"point); last residual {res:.3g}; {hint}")
+            return failed(it, f"Newton {where} stopped at {fmt(z)}: DP − I is singular (a parabolic point); last "
+                              f"residual {res:.3g}")
         length = float(np.linalg.norm(dz))
         capped = length > radius
         if capped:
@@ -247,23 +272,20 @@ def search_axis(P: ReturnMap, guess: Any, *, inside: Callable[[np.ndarray], bool
         lam, accepted = 1.0, None
         for _ in range(HALVINGS + 1):
             zt = z + lam * dz
-            if inside(zt):
+            if np.linalg.norm(zt - start[0]) <= region and inside(zt):
                 Ft, stt = ev.value(zt)
                 if Ft is not None and np.linalg.norm(Ft) <= (1.0 - ARMIJO * lam) * res:
                     accepted = zt
                     break
             lam *= 0.5
         if accepted is None:
-            return result(best[0], False, best[1], best[2], it,
-                          f"the magnetic axis: Newton {where} did not converge: no step decreases the residual "
-                          f"{res:.3g} at {fmt(z)} ({HALVINGS} halvings); {hint}")
+            return failed(it, f"Newton {where} did not converge: no step within {region:.3g} of its start "
+                              f"decreases the residual {res:.3g} at {fmt(z)} ({HALVINGS} halvings)")
         step = lam * float(np.linalg.norm(dz))
         radius = 2.0 * radius if (lam == 1.0 and capped) else (step if lam < 1.0 else radius)
         F2, st2, J2 = ev.value_and_jac(accepted)
         if F2 is None:  # the value was fine a moment ago: a Jacobian line failed (a neighbour left the grid)
-            return result(best[0], False, best[1], best[2], it,
-                          f"the magnetic axis: Newton {where}: the map's derivative fails at {fmt(accepted)}: "
-                          f"{status_message(st2)}; {hint}")
+            return failed(it, f"Newton {where}: the map's derivative fails at {fmt(accepted)}: {status_message(st2)}")
         z, F, J = accepted, F2, J2
         res = float(np.linalg.norm(F))
         if res < best[1]:

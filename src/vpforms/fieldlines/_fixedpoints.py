@@ -28,10 +28,10 @@ from ..diagnostics._surfaces import wrap_angle
 from ._axis_search import REFINE_TRANSITS, _value_and_jac, search_axis
 from ._domain import check_radii, check_starts, rz_box
 from ._geometry import is_toroidal
-from ._native_map import native_crossings, native_power, native_value_and_jac, native_winding
+from ._native_map import native_crossings, native_value_and_jac, native_winding
 from ._returnmap import ReturnMap, return_map, status_message
 
-__all__ = ["FixedPoint", "find_fixed_point", "magnetic_axis", "island_chain", "scan_fixed_points"]
+__all__ = ["FixedPoint", "find_fixed_point", "magnetic_axis"]
 
 
 @dataclass(frozen=True)
@@ -283,9 +283,10 @@ def magnetic_axis(method: Any, guess: Any, h: float, phi: float = 0.0, nfp: int 
     counted in map evaluations, never in seconds: the result does not depend on the machine's load.
     When the search fails, ``on_failure="raise"`` (default) raises
     :class:`~vpforms.ConvergenceError` (one line: the guess, the last residual, what to try);
-    ``on_failure="guess"`` returns the point of least residual seen (or the refined guess) as a
-    :class:`FixedPoint` with ``converged=False`` and a ``note`` saying so, so that a study can go on
-    from it (its kind and ι from the tangent map there where the map returns, else kind "unknown").
+    ``on_failure="guess"`` returns the refined guess (or Newton's point of least residual, where
+    that is 1000× below the refined guess's) as a :class:`FixedPoint` with ``converged=False``,
+    kind "unknown", ι NaN and a ``note`` saying why and which point it is, so that a study can go
+    on from it.
 
     ι of the axis comes from the tangent map M = DP: cos(2π ι/nfp) = tr M / 2 gives ι up to the branch
     (ι/nfp ↦ k ± ν), which is chosen by the turning of a tangent vector followed for 8 field periods;
@@ -303,65 +304,17 @@ def magnetic_axis(method: Any, guess: Any, h: float, phi: float = 0.0, nfp: int 
     found = search_axis(P, g, inside=_inside_test(method, P.phi0), scale=_box_scale(method), tol=tol,
                         max_iter=max_iter, refine=refine, transits=transits, backend=backend)
     if not found.converged and on_failure == "raise":
-        raise ConvergenceError(found.message)
+        raise ConvergenceError(f"the magnetic axis: {found.message}; try a guess nearer the axis (the centre of "
+                               "the innermost closed curve of a Poincaré section), a smaller step h, or "
+                               "on_failure='guess' to go on from the best point")
     z, J = found.z, found.jacobian
-    known = bool(np.all(np.isfinite(J)))
-    residue = (2.0 - float(np.trace(J))) / 4.0 if known else math.nan
-    kind = _kind(residue) if known else "unknown"
-    notes = () if found.converged else (
-        f"not converged: {found.message.removeprefix('the magnetic axis: ')}; R, Z are the "
-        + ("point of least residual found" if known else "guess") + " and the study goes on from it",)
-    native = found.native
-    iota = _axis_iota(P, z, float(np.trace(J)), native) if kind == "O" else math.nan
+    if found.converged:
+        residue = (2.0 - float(np.trace(J))) / 4.0
+        kind, notes = _kind(residue), ()
+    else:  # not a fixed point: no type, no ι (DP there, where the map returns, stays for inspection)
+        residue, kind = math.nan, "unknown"
+        notes = (f"axis search not converged: {found.message}; R, Z are that best point",)
+    iota = _axis_iota(P, z, float(np.trace(J)), found.native) if kind == "O" else math.nan
     return FixedPoint(R=float(z[0]), Z=float(z[1]), m=1, residual=found.residual, iterations=found.iterations,
                       jacobian=J, residue=residue, kind=kind, orbit=z[None, :], phi0=P.phi0, nfp=P.nfp, iota=iota,
                       notes=notes, converged=found.converged, evaluations=found.evaluations)
-
-
-def scan_fixed_points(P: ReturnMap, m: int, R: Any, Z: float = 0.0, *, tol: float = 1e-10,
-                      max_iter: int = 30) -> list[FixedPoint]:
-    """The fixed points of Pᵐ found by Newton from the local minima of |Pᵐ(z) − z| along the
-    line Z = const at the radii R (a scan of the midplane); duplicates (points of one chain) merged."""
-    R = np.asarray(R, float)
-    cache = P.__dict__.setdefault("_jit_cache", {})
-    fm = cache.setdefault(("scan", m), jax.jit(jax.vmap(lambda z: P.power(z, m))))
-    zs = np.stack([R, np.full_like(R, Z)], axis=1)
-    z2, st = fm(jnp.asarray(zs))
-    d = np.linalg.norm(np.asarray(z2) - zs, axis=1)
-    d[np.asarray(st) != RESULTS.successful] = np.inf
-    minima = [i for i in range(len(R)) if np.isfinite(d[i]) and (i == 0 or d[i] <= d[i - 1])
-              and (i == len(R) - 1 or d[i] <= d[i + 1])]
-    found: list[FixedPoint] = []
-    for i in minima:
-        try:
-            fp = find_fixed_point(P, zs[i], m, tol=tol, max_iter=max_iter)
-        except (ConvergenceError, RuntimeError):
-            continue
-        orbit_pts = np.concatenate([g.orbit for g in found]) if found else np.zeros((0, 2))
-        if orbit_pts.size and np.min(np.linalg.norm(orbit_pts - [fp.R, fp.Z], axis=1)) < 1e-7:
-            continue
-        found.append(fp)
-    return found
-
-
-def island_chain(method: Any, m: int, h: float, R: Any, Z: float = 0.0, phi: float = 0.0, nfp: int = 1, *,
-                 tol: float = 1e-10) -> list[FixedPoint]:
-    """The O- and X-points of the m-island chains crossing the line Z = const at radii R (an
-    array of scan radii, e.g. ``np.linspace(1.2, 1.35, 61)``): fixed points of Pᵐ that are not fixed
-    points of a lower power dividing m (the axis is not an island)."""
-    R = np.asarray(R, float).reshape(-1)
-    _check_section_points(method, phi, np.stack([R, np.full_like(R, Z)], axis=1), "the island scan point")
-    P = return_map(method, h, phi, nfp, guess=(float(np.mean(R)), float(Z)))
-    pts = scan_fixed_points(P, m, R, Z, tol=tol)
-    out = []
-    for fp in pts:  # keep the points of minimal period m
-        minimal = True
-        for d in range(1, m):
-            if m % d == 0:
-                got = native_power(P, [fp.R, fp.Z], d)
-                z2, st = (got[0][0], got[1][0]) if got is not None else P.power(jnp.array([fp.R, fp.Z]), d)
-                if int(st) == RESULTS.successful and np.linalg.norm(np.asarray(z2) - [fp.R, fp.Z]) < 1e-8:
-                    minimal = False
-        if minimal:
-            out.append(fp)
-    return out
