@@ -1,15 +1,16 @@
-"""W7-X field lines end to end (issue #38 item 4): sections on the bean and triangle planes, the axis, ι, the 5/5 chain.
+"""Real stellarators end to end (issue #38 item 4): sections on two planes, the axis, ι of every line; W7-X's 5/5 chain.
 
-    PYTHONPATH=$PWD/src python benchmarks/studies/study_w7x.py [--grid 48x96x48] [--transits 200] [--lines 24]
+    PYTHONPATH=$PWD/src python benchmarks/studies/study_device.py [--device w7x] [--grid 48x96x48] [--transits 200]
 
-W7-X's coils as simsopt integrates them (``device("w7x", rule="quadrature")``) splined on a grid that
-follows the default domain (:func:`vpforms.problems.devices.grid_field`), SE+SE composed to order 2,
-fixed h, natively. Lines start on the outboard midplane of φ = 0 from the axis out to 0.32 m (past
-the last closed surface at ≈ 0.25 m, through the 5/5 island chain at R ∈ [6.20, 6.25] m) and are
-stopped at the domain. The script writes ``docs/figures/w7x_sections.png`` (φ = 0 and φ = 36° side by
-side, the domain's boundary, the axis, the chain's O- and X-points) and
-``benchmarks/studies/results_study_w7x.md`` (timings, the axis and its ι, ι of each line by the
-weighted Birkhoff average of its crossings, the chain's fixed points, failed lines).
+The device's coils as simsopt integrates them (``device(name, rule="quadrature")``) splined on a grid
+that follows its default domain (:func:`vpforms.problems.devices.grid_field`), SE+SE composed to
+order 2, fixed h, natively. Lines start on the outboard midplane of φ = 0 from the axis out to 1.3×
+the distance to the last closed surface (W7-X: 0.32 m, past the last closed surface at ≈ 0.25 m,
+through the 5/5 island chain at R ∈ [6.20, 6.25] m) and are stopped at the domain. The script writes
+``docs/figures/<device>_sections.png`` (φ = 0 and half a period side by side — W7-X's bean and
+triangle —, the domain's boundary, the axis, the chain's O- and X-points with ``--islands``) and
+``benchmarks/studies/results_study_device_<device>.md`` (timings, the axis and its ι, ι of each
+line by the weighted Birkhoff average of its crossings, failed lines).
 """
 
 from __future__ import annotations
@@ -38,13 +39,14 @@ def iota_of_crossings(R, Z, R_axis, Z_axis, nfp):
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--device", default="w7x")
     ap.add_argument("--grid", default="48x96x48")
     ap.add_argument("--transits", type=int, default=200)
     ap.add_argument("--lines", type=int, default=24)
     ap.add_argument("--h", type=float, default=0.05)
     ap.add_argument("--order", type=int, default=2)
-    ap.add_argument("--figure", default=str(ROOT / "docs" / "figures" / "w7x_sections.png"))
-    ap.add_argument("--results", default=str(Path(__file__).with_name("results_study_w7x.md")))
+    ap.add_argument("--figure", default=None, help="default docs/figures/<device>_sections.png")
+    ap.add_argument("--results", default=None, help="default benchmarks/studies/results_study_device_<device>.md")
     ap.add_argument("--islands", action="store_true", help="also search the 5/5 chain's O- and X-points")
     args = ap.parse_args(argv)
 
@@ -56,29 +58,33 @@ def main(argv=None) -> int:
     import vpforms
     from vpforms.coils import device_axis
     from vpforms.fieldlines import island_chain, magnetic_axis, toroidal_section, trace_to_wall
-    from vpforms.problems.devices import grid_field
+    from vpforms.coils import device_data
+    from vpforms.problems.devices import EDGE, grid_field
     from vpforms.toroidal import to_toroidal
 
+    name = device_data(args.device)["name"]
+    figure = args.figure or str(ROOT / "docs" / "figures" / f"{name}_sections.png")
+    results = args.results or str(Path(__file__).with_name(f"results_study_device_{name}.md"))
     times = {}
-    nfp = 5
+    nfp = int(device_data(name)["nfp"])
     grid = tuple(int(v) for v in args.grid.split("x"))
     t = time.perf_counter()
-    field, err = grid_field("w7x", grid)
+    field, err = grid_field(name, grid)
     times["grid (sample A, fit)"] = time.perf_counter() - t
     t = time.perf_counter()
     m = vpforms.compose(vpforms.scheme(field, "SE+SE", recover=False), order=args.order)
     times["method"] = time.perf_counter() - t
-    R0, Z0 = (float(v) for v in device_axis("w7x")(0.0))
+    R0, Z0 = (float(v) for v in device_axis(name)(0.0))
     t = time.perf_counter()
     axis = magnetic_axis(m, (R0, Z0), args.h, 0.0, nfp)
     times["axis (Newton on the return map)"] = time.perf_counter() - t
-    offsets = np.linspace(0.0125, 0.32, args.lines)
+    offsets = np.linspace(0.05, 1.28, args.lines) * EDGE[name]
     x0 = np.asarray(to_toroidal(np.c_[axis.R + offsets, np.zeros_like(offsets), np.full_like(offsets, axis.Z)]))
     x1 = np.asarray(m.step_with_status(x0[0], args.h)[0])
     steps = int(np.ceil(args.transits * 2 * np.pi / abs(float(x1[1] - x0[0][1]))))
     dom = field.domain
     secs = {}
-    for phi in (0.0, np.pi / 5):
+    for phi in (0.0, np.pi / nfp):
         t = time.perf_counter()
         secs[phi] = toroidal_section(m, x0, args.h, steps, phi=phi, nfp=nfp, progress=False)
         times[f"section φ = {np.degrees(phi):.0f}° ({args.lines} lines × {args.transits} transits)"] = \
@@ -87,9 +93,9 @@ def main(argv=None) -> int:
     hits = trace_to_wall(m, x0, args.h, steps, dom, progress=False)
     times["the same lines to the domain's boundary"] = time.perf_counter() - t
     chains = []
-    if args.islands:
+    if args.islands and name == "w7x":
         t = time.perf_counter()
-        chains = island_chain(m, 5, args.h, np.linspace(axis.R + 0.24, axis.R + 0.31, 15), axis.Z, 0.0, nfp)
+        chains = island_chain(m, 5, args.h, np.linspace(axis.R + 0.24, axis.R + 0.31, 15), axis.Z, 0.0, nfp)  # W7-X
         times["5/5 chain (fixed points of P⁵)"] = time.perf_counter() - t
     iotas = []
     sec0 = secs[0.0].before(hits.t_exit)
@@ -112,16 +118,16 @@ def main(argv=None) -> int:
         ax.set_aspect("equal")
         ax.set_xlabel("R (m)")
         ax.set_ylabel("Z (m)")
-        ax.set_title(f"φ = {np.degrees(phi):.0f}° ({'bean' if phi == 0 else 'triangle'})")
+        ax.set_title(f"φ = {np.degrees(phi):.0f}°" + (f" ({'bean' if phi == 0 else 'triangle'})" if name == "w7x" else ""))
         ax.legend(fontsize=8, loc="lower left")
     fig.colorbar(sc, ax=axes, label="start offset from the axis (m)", shrink=0.8)
-    fig.suptitle(f"W7-X (simsopt's coils by quadrature), {args.grid} grid on the domain, SE+SE order {args.order}, "
+    fig.suptitle(f"{name} (simsopt's coils by quadrature), {args.grid} grid on the domain, SE+SE order {args.order}, "
                  f"h = {args.h:g}, {args.transits} transits")
-    os.makedirs(os.path.dirname(args.figure), exist_ok=True)
-    fig.savefig(args.figure, dpi=110)
+    os.makedirs(os.path.dirname(figure), exist_ok=True)
+    fig.savefig(figure, dpi=110)
 
-    out = ["# W7-X study (issue #38 item 4)", "",
-           f"Generated by `benchmarks/studies/study_w7x.py --grid {args.grid} --transits {args.transits} --lines "
+    out = [f"# {name} study (issue #38 item 4)", "",
+           f"Generated by `benchmarks/studies/study_device.py --device {name} --grid {args.grid} --transits {args.transits} --lines "
            f"{args.lines}{' --islands' if args.islands else ''}`; {os.cpu_count()} cores, load average "
            f"{os.getloadavg()[0]:.1f} at the end.", "",
            "| phase | s |", "|---|---|", *[f"| {k} | {v:.1f} |" for k, v in times.items()], "",
@@ -133,7 +139,7 @@ def main(argv=None) -> int:
            *[f"| {o:.4f} | {axis.R + o:.5f} | {io:.6f} | {bool(hit)} |" for o, io, hit in zip(offsets, iotas, hits.hit)]]
     for fp in chains:
         out.append(f"* 5/5 {fp.kind}-point: R = {fp.R:.6f} m, Z = {fp.Z:.5f} m, residue {fp.residue:.4g}")
-    Path(args.results).write_text("\n".join(out) + "\n")
+    Path(results).write_text("\n".join(out) + "\n")
     print("\n".join(out))
     return 0
 
