@@ -222,7 +222,8 @@ def test_default_tokamak_m2_island_o_points_are_fixed_points_of_p2():
     m = vpforms.compose(vpforms.scheme(prob.field, "SE+SE"), order=2)
     # δψ ∝ cos(2θ − φ): the O-points are on the outboard midplane at φ = 0, the X-points at φ = π
     for phi, kind in ((0.0, "O"), (np.pi, "X")):
-        pts = island_chain(m, 2, 0.05, np.linspace(1.2, 1.36, 17), phi=phi, partners=False)  # the scan alone
+        # the midplane scan alone (partners=False), on the JAX map that P.power below evaluates
+        pts = island_chain(m, 2, 0.05, np.linspace(1.2, 1.36, 17), phi=phi, partners=False, backend="jax")
         assert pts and {p.kind for p in pts} == {kind}
         P = return_map(m, 0.05, phi, guess=(1.29, 0.0))
         for fp in pts:

@@ -24,6 +24,7 @@ import vpforms
 from vpforms import RESULTS, problems
 from vpforms.fieldlines import island_chain, magnetic_axis, return_map
 from vpforms.fieldlines._axis_search import _value_and_jac
+from vpforms.fieldlines._native_map import native_value_and_jac
 
 R0, E = 1.0, 1.3
 H = 2 * math.pi / 64
@@ -123,7 +124,9 @@ def test_the_axis_is_not_an_island_and_a_bad_axis_is_refused():
 def test_default_tokamak_m2_x_points_are_found_off_the_midplane():
     """The tokamak problem (ε = 0.01, (m, n) = (2, 1)): at φ = 0 the midplane crosses the O-points;
     the X-points (at φ = 0 above and below the axis) are found between them: fixed points of P²
-    with |tr DP²| > 2, two of them, interleaved with the O-points about the axis."""
+    with |tr DP²| > 2, two of them, interleaved with the O-points about the axis. Checked on the
+    map the search used (native traces through two periods, DP² by central differences), and
+    against the JAX map's P² (two restarts at the crossing) within the integrator's own error."""
     prob = problems.get("tokamak", coordinates="toroidal")
     m = vpforms.compose(vpforms.scheme(prob.field, "SE+SE"), order=2)
     axis = magnetic_axis(m, prob.axis_guess, 0.05)
@@ -132,13 +135,20 @@ def test_default_tokamak_m2_x_points_are_found_off_the_midplane():
     X = [p for p in pts if p.kind == "X"]
     assert len(O) == 1 and len(X) == 1
     P = return_map(m, 0.05, guess=(1.29, 0.0))
+    vj = native_value_and_jac(P, 2)
     xs = np.asarray(X[0].orbit)
     assert xs.shape == (2, 2) and np.linalg.norm(xs[0] - xs[1]) > 0.1  # two X-points: the chain's m
     for z in xs:
-        z2, st = P.power(jnp.asarray(z), 2)
-        assert int(st) == 0 and np.linalg.norm(np.asarray(z2) - z) <= 1e-9
-        J = np.asarray(jax.jacfwd(lambda y: P.power(y, 2)[0])(jnp.asarray(z)))
+        z2, st, J = vj(z)
+        assert int(st) == 0 and np.linalg.norm(z2 - z) <= 1e-9
         assert abs(np.trace(J)) > 2 and abs(np.linalg.det(J) - 1) <= 1e-5
+        # the JAX map's P² (restarted at the first crossing): another O(h²) discretisation of the
+        # same P², 3e-6 away at h = 0.05 (order 2) — a fixed point of it to that accuracy
+        zj, st = P.power(jnp.asarray(z), 2)
+        assert int(st) == 0 and np.linalg.norm(np.asarray(zj) - z) <= 1e-5
         assert abs(z[1] - axis.Z) > 0.1  # off the midplane
+    for z in np.asarray(O[0].orbit):  # the O-points too: elliptic fixed points of the same P²
+        z2, st, J = vj(z)
+        assert int(st) == 0 and np.linalg.norm(z2 - z) <= 1e-9 and abs(np.trace(J)) < 2
     ang = sorted((math.atan2(z[1] - axis.Z, z[0] - axis.R), p.kind) for p in O + X for z in p.orbit)
     assert all(ang[i][1] != ang[(i + 1) % 4][1] for i in range(4))

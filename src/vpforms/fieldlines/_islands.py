@@ -30,7 +30,7 @@ import numpy as np
 
 from .._errors import RESULTS, ConvergenceError
 from ..backends import select_backend
-from ._fixedpoints import FixedPoint, _check_section_points, find_fixed_point
+from ._fixedpoints import FixedPoint, _check_section_points, _inside_test, find_fixed_point
 from ._native_map import native_power
 from ._returnmap import ReturnMap, return_map
 
@@ -42,11 +42,12 @@ GRID = 7
 SAME = 1e-7
 
 
-def _powers(P: ReturnMap, zs: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray]:
+def _powers(P: ReturnMap, zs: np.ndarray, m: int, backend: str = "auto") -> tuple[np.ndarray, np.ndarray]:
     """(Pᵐ(z) for each row z of zs (k, 2), status (k,)): one native section run where the native
-    backend runs the method (decided without a trace), else the JAX map vmapped."""
+    backend runs the method (decided without a trace) and ``backend`` allows, else the JAX map
+    vmapped."""
     zs = np.asarray(zs, float).reshape(-1, 2)
-    if select_backend(P.method, "auto")[0] == "native":
+    if backend != "jax" and select_backend(P.method, "auto")[0] == "native":
         got = native_power(P, zs, m)
         if got is not None:
             return np.asarray(got[0], float), np.asarray(got[1])
@@ -56,27 +57,30 @@ def _powers(P: ReturnMap, zs: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarra
     return np.asarray(z2), np.asarray(st)
 
 
-def _residuals(P: ReturnMap, zs: np.ndarray, m: int) -> np.ndarray:
+def _residuals(P: ReturnMap, zs: np.ndarray, m: int, backend: str = "auto") -> np.ndarray:
     """|Pᵐ(z) − z| for each row (inf where the line fails)."""
-    z2, st = _powers(P, zs, m)
+    z2, st = _powers(P, zs, m, backend)
     d = np.linalg.norm(z2 - zs, axis=1)
     d[(st != RESULTS.successful) | ~np.isfinite(d)] = np.inf
     return d
 
 
 def scan_fixed_points(P: ReturnMap, m: int, R: Any, Z: float = 0.0, *, tol: float = 1e-10,
-                      max_iter: int = 30) -> list[FixedPoint]:
+                      max_iter: int = 30, backend: str = "auto") -> list[FixedPoint]:
     """The fixed points of Pᵐ found by Newton from the local minima of |Pᵐ(z) − z| along the
-    line Z = const at the radii R (a scan of the midplane); duplicates (points of one chain) merged."""
+    line Z = const at the radii R (a scan of the midplane); duplicates (points of one chain) merged.
+    ``backend`` as :func:`~vpforms.fieldlines.find_fixed_point`."""
+    if backend not in ("auto", "jax", "native"):
+        raise ValueError(f"backend must be 'auto', 'jax' or 'native'; got {backend!r}")
     R = np.asarray(R, float)
     zs = np.stack([R, np.full_like(R, Z)], axis=1)
-    d = _residuals(P, zs, m)
+    d = _residuals(P, zs, m, backend)
     minima = [i for i in range(len(R)) if np.isfinite(d[i]) and (i == 0 or d[i] <= d[i - 1])
               and (i == len(R) - 1 or d[i] <= d[i + 1])]
     found: list[FixedPoint] = []
     for i in minima:
         try:
-            fp = find_fixed_point(P, zs[i], m, tol=tol, max_iter=max_iter)
+            fp = find_fixed_point(P, zs[i], m, tol=tol, max_iter=max_iter, backend=backend)
         except (ConvergenceError, RuntimeError):
             continue
         if _known(found, fp):
@@ -93,11 +97,11 @@ def _known(chains: list[FixedPoint], fp: FixedPoint) -> bool:
     return bool(np.min(np.linalg.norm(pts - [fp.R, fp.Z], axis=1)) < SAME)
 
 
-def _minimal(P: ReturnMap, fp: FixedPoint) -> bool:
+def _minimal(P: ReturnMap, fp: FixedPoint, backend: str = "auto") -> bool:
     """Whether fp is not a fixed point of Pᵈ for a divisor d < m of m (the axis is not an island)."""
     for d in range(1, fp.m):
         if fp.m % d == 0:
-            z2, st = _powers(P, np.array([[fp.R, fp.Z]]), d)
+            z2, st = _powers(P, np.array([[fp.R, fp.Z]]), d, backend)
             if int(st[0]) == RESULTS.successful and np.linalg.norm(z2[0] - [fp.R, fp.Z]) < 1e-8:
                 return False
     return True
@@ -121,7 +125,7 @@ def _centre(axis: Any, pts: np.ndarray) -> np.ndarray:
 
 
 def chain_partners(P: ReturnMap, chains: list[FixedPoint], *, axis: Any = None, tol: float = 1e-10,
-                   max_iter: int = 30) -> list[FixedPoint]:
+                   max_iter: int = 30, backend: str = "auto") -> list[FixedPoint]:
     """The fixed points of the other kind between consecutive points of each chain of ``chains``
     (module docstring), as new :class:`FixedPoint` chains (one per orbit found). ``axis``: the
     centre (R, Z) (or a FixedPoint) about which the poloidal angle is measured; default each
@@ -148,35 +152,36 @@ def chain_partners(P: ReturnMap, chains: list[FixedPoint], *, axis: Any = None, 
             th, rho = ang[a] + gap / 2, 0.5 * (rad[a] + rad[b])
             start = c + rho * np.array([math.cos(th), math.sin(th)])
             half = 0.25 * float(np.linalg.norm(pts[a] - pts[b]))
-            got = _partner_from(P, fp.m, start, half, want, c, ang[a], gap, chains + found, tol, max_iter)
+            got = _partner_from(P, fp.m, start, half, want, c, ang[a], gap, chains + found, tol, max_iter, backend)
             if got is not None:
                 found.append(got)
     return found
 
 
-def _partner_from(P, m, start, half, want, c, ang0, gap, chains, tol, max_iter) -> FixedPoint | None:
+def _partner_from(P, m, start, half, want, c, ang0, gap, chains, tol, max_iter, backend) -> FixedPoint | None:
     """Newton for Pᵐ from ``start``, then from the three least local minima of |Pᵐ − id| on the
     GRID × GRID square of half-width ``half`` about it; the first point kept (module docstring)."""
 
     def accept(z0):
         try:
-            fp = find_fixed_point(P, z0, m, tol=tol, max_iter=max_iter)
+            fp = find_fixed_point(P, z0, m, tol=tol, max_iter=max_iter, backend=backend)
         except (ConvergenceError, RuntimeError, np.linalg.LinAlgError):
             return None
         ok = (fp.kind == want and _in_gap(math.atan2(fp.Z - c[1], fp.R - c[0]), ang0, gap)
-              and not _known(chains, fp) and _minimal(P, fp))
+              and not _known(chains, fp) and _minimal(P, fp, backend))
         return fp if ok else None
 
-    got = accept(start)
+    inside = _inside_test(P.method, P.phi0)
+    got = accept(start) if inside(start) else None
     if got is not None or not half > 0:
         return got
     s = np.linspace(-half, half, GRID)
     grid = np.stack(np.meshgrid(start[0] + s, start[1] + s, indexing="ij"), axis=-1).reshape(-1, 2)
-    inside = np.array([_inside(P, z) for z in grid])
+    inside = np.array([inside(z) for z in grid])
     if not inside.any():
         return None
     d = np.full(len(grid), np.inf)
-    d[inside] = _residuals(P, grid[inside], m)
+    d[inside] = _residuals(P, grid[inside], m, backend)
     D = d.reshape(GRID, GRID)
     pad = np.pad(D, 1, constant_values=np.inf)
     nb = np.min([pad[1 + di:GRID + 1 + di, 1 + dj:GRID + 1 + dj] for di in (-1, 0, 1) for dj in (-1, 0, 1)
@@ -189,16 +194,9 @@ def _partner_from(P, m, start, half, want, c, ang0, gap, chains, tol, max_iter) 
     return None
 
 
-def _inside(P: ReturnMap, z) -> bool:
-    try:
-        _check_section_points(P.method, P.phi0, [z], "point")
-    except ValueError:
-        return False
-    return True
-
-
 def island_chain(method: Any, m: int, h: float, R: Any, Z: float = 0.0, phi: float = 0.0, nfp: int = 1, *,
-                 tol: float = 1e-10, partners: bool = True, axis: Any = None) -> list[FixedPoint]:
+                 tol: float = 1e-10, partners: bool = True, axis: Any = None,
+                 backend: str = "auto") -> list[FixedPoint]:
     """The O- and X-points of the m-island chains crossing the line Z = const at radii R (an
     array of scan radii, e.g. ``np.linspace(1.2, 1.35, 61)``): fixed points of Pᵐ that are not fixed
     points of a lower power dividing m (the axis is not an island), one :class:`FixedPoint` per
@@ -207,14 +205,17 @@ def island_chain(method: Any, m: int, h: float, R: Any, Z: float = 0.0, phi: flo
     With ``partners`` (default), the chains of the other kind are found too, wherever they lie —
     the X-points of a chain whose O-points the line crosses, off the line (module docstring):
     Newton between consecutive points of each chain, sorted by the poloidal angle about ``axis``
-    ((R, Z) or the :class:`FixedPoint` of :func:`magnetic_axis`; default the chain's centroid)."""
+    ((R, Z) or the :class:`FixedPoint` of :func:`magnetic_axis`; default the chain's centroid).
+    ``backend`` as :func:`~vpforms.fieldlines.find_fixed_point` ("auto": Pᵐ and its central-difference
+    DPᵐ from native traces where they run — the line traced on through m periods, which differs
+    from m restarts of the JAX map P by the integrator's own error)."""
     if isinstance(m, bool) or int(m) != m or int(m) < 1:
         raise ValueError(f"m must be a positive integer; got {m!r}")
     m = int(m)
     R = np.asarray(R, float).reshape(-1)
     _check_section_points(method, phi, np.stack([R, np.full_like(R, Z)], axis=1), "the island scan point")
     P = return_map(method, h, phi, nfp, guess=(float(np.mean(R)), float(Z)))
-    out = [fp for fp in scan_fixed_points(P, m, R, Z, tol=tol) if _minimal(P, fp)]
+    out = [fp for fp in scan_fixed_points(P, m, R, Z, tol=tol, backend=backend) if _minimal(P, fp, backend)]
     if partners:
-        out += chain_partners(P, out, axis=axis, tol=tol)
+        out += chain_partners(P, out, axis=axis, tol=tol, backend=backend)
     return out
