@@ -109,9 +109,10 @@ def _as_axis(axis: Any, method: Any = None, h: float | None = None) -> AxisCurve
     if isinstance(axis, AxisCurve):
         return axis
     if hasattr(axis, "R") and hasattr(axis, "Z") and hasattr(axis, "m"):  # a FixedPoint: the axis at φ₀
-        if method is not None and getattr(axis, "nfp", 1) > 1:
+        if method is not None and getattr(axis, "nfp", 1) > 1 and getattr(axis, "converged", True):
             # a stellarator's axis moves with φ (W7-X's by 0.7 m in R over a period): the circle
-            # through its point on φ₀ need not lie inside a line's torus at other φ
+            # through its point on φ₀ need not lie inside a line's torus at other φ (an axis search
+            # that did not converge, magnetic_axis(on_failure="guess"), has no axis line: its circle)
             return axis_curve(method, axis, h, harmonics=16)
         return AxisCurve.constant(axis.R, axis.Z)
     a = np.asarray(axis, float).reshape(-1)
