@@ -50,7 +50,7 @@ def test_native_map_and_axis_equal_the_jax_ones_on_the_tokamak():
 
 @pytest.mark.slow  # the JAX ι scan compiles for ~15 s
 def test_native_iota_equals_the_jax_iota_on_the_tokamak():
-    """ι read at 64 planes per turn from native traces against the per-step JAX sums: the same
+    """ι read at 16 planes per turn from native traces against the per-step JAX sums: the same
     weighted Birkhoff limits (agreement far inside either's own error estimate)."""
     from vpforms.fieldlines import rotational_transform
 

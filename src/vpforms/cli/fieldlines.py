@@ -29,6 +29,7 @@ from ..fieldlines import (
     trace_to_wall,
 )
 from ..fieldlines._domain import StartPointError
+from ..fieldlines._native_map import _steps_per_period
 from ..fieldlines._fixedpoints import _check_section_points
 from ._common import (
     CLIError,
@@ -214,7 +215,10 @@ def _study(args, console) -> int:
             method = _method_from_args(args, field)
         with log.phase("searching for the magnetic axis (Newton on the return map)"):
             P = return_map(method, args.h, args.phi, nfp, guess=guess)
-            axis = magnetic_axis(method, guess, args.h, args.phi, nfp, return_map_=P)
+            # bounded (map evaluations, never seconds); on failure the study goes on from the best point
+            axis = magnetic_axis(method, guess, args.h, args.phi, nfp, return_map_=P, on_failure="guess")
+        if not axis.converged:
+            console.print(f"[bold yellow]warning:[/] {axis.note}", soft_wrap=True)
         # start points on the line Z = Z_axis of the section, outboard of the axis
         if args.radii:
             dr = np.asarray(args.radii, float)
@@ -224,8 +228,8 @@ def _study(args, console) -> int:
         Rs = axis.R + dr
         x0 = np.asarray(np.stack([P.state(np.array([r, axis.Z])) for r in Rs]), float)
         with log.phase(f"tracing the section ({len(x0)} lines, {args.transits:g} transits)"):
-            per_step = abs(float(P._dphi(method.step_with_status(x0[0], args.h)[0], x0[0])))
-            steps = max(2, int(math.ceil(args.transits * 2 * math.pi / (per_step))))
+            # steps per transit from B^φ at the first start (one field evaluation, no step compiled)
+            steps = max(2, int(math.ceil(args.transits * nfp * _steps_per_period(P, x0[0]))))
             sec = toroidal_section(method, x0, args.h, steps, phi=args.phi, nfp=nfp, progress="auto")
         with log.phase(f"computing ι of the lines (weighted Birkhoff averages, {len(x0)} lines)"):
             iota = rotational_transform(method, x0, args.h, steps, axis, progress="auto")
@@ -234,7 +238,7 @@ def _study(args, console) -> int:
             lo, hi = (args.island_range if args.island_range else (Rs.min(), Rs.max()))
             with log.phase(f"searching for m = {args.islands} island chains ({args.island_scan} scan points)"):
                 chains = island_chain(method, args.islands, args.h, np.linspace(lo, hi, args.island_scan), axis.Z,
-                                      args.phi, nfp)
+                                      args.phi, nfp, axis=axis)  # O- and X-points, off the scanned line too
         hits = None
         if wall is not None:
             with log.phase(f"tracing the lines to the wall ({len(x0)} lines)"):
@@ -248,13 +252,14 @@ def _study(args, console) -> int:
                                    title=f"{name}: {what}", path=args.png, units=units,
                                    color_by=Rs, color_label=R_label)
             plots.iota_figure(iota, title=f"{name}: rotational transform and safety factor; {what}",
-                              path=args.iota_png, units=units, axis=axis)
+                              path=args.iota_png, units=units, axis=axis if axis.converged else None)
     rows = {
         "field": name,
         "method": sec.section.method,
         "section": f"φ = {sec.phi0:.6g} (mod 2π/{nfp})",
         "lines × steps": f"{len(x0)} × {steps} (h = {args.h:g}, ≈ {args.transits:g} transits)",
-        "magnetic axis (R, Z)": f"({axis.R:.10g}, {axis.Z:.3g}), residual {axis.residual:.1e}, {axis.kind}",
+        "magnetic axis (R, Z)": f"({axis.R:.10g}, {axis.Z:.3g}), residual {axis.residual:.1e}, {axis.kind}"
+                                + ("" if axis.converged else " — NOT CONVERGED: the study went on from this point"),
         "ι on the axis (tangent map)": f"{axis.iota:.10g} (q = {axis.q:.10g})",
         "ι of the lines": f"{np.nanmin(iota.iota):.6g} … {np.nanmax(iota.iota):.6g} "
                           f"(max Birkhoff error estimate {np.nanmax(iota.error):.1e})",

@@ -238,8 +238,10 @@ def rotational_transform(method: Any, x0: Any, h: float, n_steps: int, axis: Any
     return _iota_result(sums_all, status, pts, toroidal, n_steps)
 
 
-#: half-planes per toroidal turn at which the native path reads θ and φ
-PLANES = 64
+#: half-planes per toroidal turn at which the native path reads θ and φ: a line must turn
+#: poloidally by less than π between two, |ι| < PLANES/2 (each crossing is located by Newton on
+#: the step family: more planes cost more)
+PLANES = 16
 
 
 def _native_sums(method, pts, h, n_steps, ax, toroidal, progress):
