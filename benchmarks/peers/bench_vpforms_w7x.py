@@ -143,15 +143,15 @@ def _figure(ours: dict, simsopt_path: Path, path: Path) -> None:
         ax.loglog(r["long_s"], r["error_max_m"], "o", color="C0")
         ax.annotate(f"{r['grid']} o{r['order']} h={r['h']:g}", (r["long_s"], r["error_max_m"]), fontsize=7)
     ax.plot([], [], "o", color="C0", label="vpforms (grid on the domain, SE+SE)")
-    if simsopt_path.is_file():
+    if simsopt_path.is_file():  # results_simsopt_w7x.json: parts → interp_* (runs per tol), direct_*
         s = json.loads(simsopt_path.read_text())
-        pts = [(r.get("long_s") or r.get("wall_1000_s"), r.get("error_max_m") or r.get("error50_max_m"), r.get("label", ""))
-               for r in s.get("rows", []) if isinstance(r, dict)]
-        pts = [p for p in pts if p[0] and p[1]]
-        for x, y, lab in pts:
-            ax.loglog(x, y, "s", color="C3")
-            ax.annotate(str(lab), (x, y), fontsize=7)
-        ax.plot([], [], "s", color="C3", label="simsopt (compute_fieldlines)")
+        for key, part in s.get("parts", {}).items():
+            if key.startswith("interp_"):
+                for r in part.get("runs", []):
+                    ax.loglog(r["seconds"], r["errors"]["bean_max_m"], "s", color="C3")
+                    ax.annotate(f"d{part['degree']} {'×'.join(map(str, part['cells']))} tol {r['tol']:g}",
+                                (r["seconds"], r["errors"]["bean_max_m"]), fontsize=6)
+        ax.plot([], [], "s", color="C3", label="simsopt InterpolatedField (compute_fieldlines)")
     ax.set_xlabel(f"wall time, 20 lines × {ours['rows'][0]['long_transits']} transits (s)")
     ax.set_ylabel("section error at 50 transits, max over lines (m)")
     ax.set_title("W7-X: accuracy against wall time")
