@@ -26,6 +26,8 @@ from vpforms.fieldlines import island_chain, magnetic_axis, return_map
 from vpforms.fieldlines._axis_search import _value_and_jac
 from vpforms.fieldlines._native_map import native_value_and_jac
 
+from .test_fieldlines import TwistField
+
 R0, E = 1.0, 1.3
 H = 2 * math.pi / 64
 
@@ -34,13 +36,10 @@ def iota_of(r):
     return 0.3 + 3.2 * r**2
 
 
-class ToyField:
-    coordinates = "toroidal (u = R²/2, φ, Z)"
-    box = ((0.5 * 0.4**2, 0.5 * 1.6**2), (0.0, 2 * math.pi), (-0.6, 0.6))
+class ToyField(TwistField):
+    """The twist field's stand-in (only B^φ is read) on a larger box."""
 
-    def __call__(self, x):  # only B^φ is read by return_map (the direction): φ' = 1
-        x = np.atleast_2d(x)
-        return np.column_stack([np.zeros(len(x)), np.ones(len(x)), np.zeros(len(x))])
+    box = ((0.5 * 0.4**2, 0.5 * 1.6**2), (0.0, 2 * math.pi), (-0.6, 0.6))
 
 
 class IslandMethod:
