@@ -84,13 +84,19 @@ class QuadratureCoils:
         n_c quadrature points θ_k = k/n_c of θ ∈ [0, 1).
     currents : sequence of float
         One current per coil (A), finite.
-    nfp, stellsym : descriptions of the set's symmetry (not checked), as :class:`~vpforms.coils.CoilSet`.
-    names : optional names per coil.
+    nfp : int
+        The number of field periods the set is meant to have (a description, not checked).
+    stellsym : bool
+        Whether the set is meant to be stellarator symmetric (a description, not checked).
+    names : sequence of str, optional
+        A name per coil.
 
-    ``B(x)``, ``A(x)`` take a point (3,) or points (N, 3) (m) and return T and T·m of that shape
-    (JAX-traceable); :meth:`potential` is A as a :class:`QuadraturePotential` for
-    :func:`vpforms.toroidal.toroidal_field` and the grids. ``points_per_coil`` are the γ_k, e.g.
-    to test that a wire stays clear of a grid or domain.
+    Notes
+    -----
+    ``B(x)`` and ``A(x)`` take a point (3,) or points (N, 3) in metres and return tesla and
+    tesla-metres of that shape (JAX-traceable); :meth:`potential` is A as a
+    :class:`QuadraturePotential` for :func:`vpforms.toroidal.toroidal_field` and the grids;
+    ``points_per_coil`` are the γ_k (e.g. to test that a wire stays clear of a grid or domain).
     """
 
     def __init__(self, points: Any, tangents: Any, currents: Sequence[float], *, nfp: int = 1,
