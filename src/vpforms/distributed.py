@@ -34,8 +34,6 @@ an uninterrupted single-process run's.  Failed particles stay frozen across segm
 
 from __future__ import annotations
 
-import dataclasses
-import functools
 import hashlib
 import json
 import os
@@ -45,31 +43,20 @@ from typing import Any
 
 import numpy as np
 
-from . import _integrate
+from . import _dask, _integrate
 from . import io as _io
 from ._integrate import _check_run
 from ._solution import saved_steps as _global_steps
-from ._spec import method_from_spec
 from .backends import select_backend
-from .fieldlines._wall import WallHits, check_wall_run, wall_backend
-from .fieldlines._wall import trace_to_wall as _fl_trace_to_wall
+from .fieldlines._wall_chunks import trace_to_wall_chunks
 
 __all__ = ["run", "run_chunk", "trace_to_wall"]
 
 
-_IN_PROCESS: dict[str, Any] = {}  # spec text → the caller's own method (in-process runs)
-
-
-@functools.lru_cache(maxsize=8)
-def _rebuilt(spec_text: str):
-    return method_from_spec(json.loads(spec_text))
-
-
 def _method(spec_text: str):
     """The method of a spec, built once per process (compilation cached with it); in the
-    caller's process the caller's own method object (already compiled)."""
-    m = _IN_PROCESS.get(spec_text)
-    return m if m is not None else _rebuilt(spec_text)
+    caller's process the caller's own method object (already compiled): :func:`vpforms._dask.method_of`."""
+    return _dask.method_of((spec_text, spec_text, None, ""))
 
 
 def _load_checkpoint(store: str, c: int, lo: int, hi: int):
@@ -176,28 +163,6 @@ def run_chunk(spec_text: str, store: str, c: int, lo: int, x0: np.ndarray, h: fl
             os.remove(f)
     return {"chunk": c, "skipped": False, "wall_s": time.perf_counter() - t_start, "particles": n,
             "backend": ran, "from_step": from_step, "restarted": restarted, "discarded": discarded}
-
-
-def _client(client: Any, workers: int | None):
-    """(client, owned) for client = "local" | "tcp://…" | a Client."""
-    from dask.distributed import Client, LocalCluster
-
-    if isinstance(client, str):
-        if client == "local":
-            cluster = LocalCluster(n_workers=int(workers or os.cpu_count() or 1), threads_per_worker=1,
-                                   processes=True, dashboard_address=None)
-            return Client(cluster), True
-        return Client(client), True
-    return client, False
-
-
-def _close(cl: Any, owned: bool) -> None:
-    """Close a client (and its cluster) that :func:`_client` made; leave a caller's client open."""
-    if owned:
-        cluster = getattr(cl, "cluster", None)
-        cl.close()
-        if cluster is not None:
-            cluster.close()
 
 
 def _choose_backend(method: Any, backend: str | None, store: str, resume: bool) -> tuple[str, str]:
@@ -313,8 +278,8 @@ def run(method: Any, x0: Any, h: float, n_steps: int, *, store: str, save_every:
     results = []
     t_wall = time.perf_counter()
     if client is None:
-        _IN_PROCESS.clear()
-        _IN_PROCESS[spec_text] = method
+        _dask.IN_PROCESS.clear()
+        _dask.IN_PROCESS[spec_text] = method
         for k, (c, lo, x) in enumerate(todo):
             results.append(run_chunk(spec_text, store, c, lo, x, *args))
             if show:
@@ -322,7 +287,7 @@ def run(method: Any, x0: Any, h: float, n_steps: int, *, store: str, save_every:
     else:
         from dask.distributed import as_completed
 
-        cl, owned = _client(client, workers)
+        cl, owned = _dask.client(client, workers)
         try:
             futs = [cl.submit(run_chunk, spec_text, store, c, lo, x, *args, pure=False, retries=retries,
                               key=f"vpforms-chunk-{c}-{attrs['x0_sha256'][:8]}-{time.time_ns()}")
@@ -332,7 +297,7 @@ def run(method: Any, x0: Any, h: float, n_steps: int, *, store: str, save_every:
                 if show:
                     print(f"vpforms: chunk {k + 1}/{len(todo)} done", file=sys.stderr)
         finally:
-            _close(cl, owned)
+            _dask.close(cl, owned)
     wall = time.perf_counter() - t_wall
     check = _io.verify_store(store)  # the final pass: every chunk against its marker, every NaN explained
     if check["bad"]:
@@ -346,52 +311,27 @@ def run(method: Any, x0: Any, h: float, n_steps: int, *, store: str, save_every:
 
 
 
-def _wall_chunk(spec_text: str, x: np.ndarray, h: float, n_steps: int, wall: Any, t0: float, backend: str):
-    """One chunk of :func:`trace_to_wall`: the lines ``x`` traced to the wall in this process."""
-    return _fl_trace_to_wall(_method(spec_text), x, h, n_steps, wall, t0=t0, progress=False, backend=backend)
-
-
 def trace_to_wall(method: Any, x0: Any, h: float, n_steps: int, wall: Any, *, t0: float = 0.0,
                   chunk_particles: int = 65536, client: Any = None, workers: int | None = None,
-                  backend: str = "auto", retries: int = 3, progress: bool | str = "auto"):
+                  backend: str = "auto", retries: int = 3, progress: bool | str = "auto",
+                  builder: Any = None):
     """:func:`vpforms.fieldlines.trace_to_wall` over chunks of ``chunk_particles`` lines, each a task
-    (``client`` as for :func:`run`: None in this process, ``"local"``, ``"tcp://…"`` or a Client).
+    (``client`` as for :func:`run`: None in this process, ``"local"``, ``"tcp://…"`` or a Client;
+    also a worker count: that many local worker processes).
 
     The backend is chosen once, here (``"auto"``: the native wall kernel where it can run), and every
-    chunk runs it; each worker rebuilds the method from its JSON spec (once per process). A line's
-    trace depends only on its own state, so the result equals one :func:`~vpforms.fieldlines.trace_to_wall`
-    call of that backend: the same statuses, hits and exit steps, and natively the same numbers bit
-    for bit (tested). On JAX the numbers agree to rounding: a JAX run re-traces all its lines with
-    the recovering step when one of them needs recovery, and a chunk that needs none keeps the bare
-    step, compiled apart (the last bit can differ). Returns the
-    :class:`~vpforms.fieldlines.WallHits` of all the lines, in order.
+    chunk runs it; each worker rebuilds the method from its JSON spec (once per process) — or, for a
+    method whose field has no spec (a spline of coils, a device's grid), calls ``builder``, a
+    picklable zero-argument callable that builds the same method (checked on the worker by its
+    description). A line's trace depends only on its own state, so the result equals one
+    :func:`~vpforms.fieldlines.trace_to_wall` call of that backend: the same statuses, hits and
+    exit steps, and natively the same numbers bit for bit (tested). On JAX the numbers agree to
+    rounding: a JAX run re-traces all its lines with the recovering step when one of them needs
+    recovery, and a chunk that needs none keeps the bare step, compiled apart (the last bit can
+    differ). Returns the :class:`~vpforms.fieldlines.WallHits` of all the lines, in order
+    (:func:`vpforms.fieldlines._wall_chunks.trace_to_wall_chunks`).
     """
-    pts, h, n_steps = check_wall_run(method, x0, h, n_steps, wall, t0)
-    C = int(chunk_particles)
-    if C < 1:
-        raise ValueError(f"chunk_particles must be ≥ 1, got {chunk_particles}")
-    spec_text = json.dumps(method.spec(), sort_keys=True)  # SpecError: the method cannot be shipped
-    backend, reason = wall_backend(method, backend)
-    chunks = [pts[lo:lo + C] for lo in range(0, pts.shape[0], C)] or [pts]
-    args = (h, n_steps, wall, float(t0), backend)
-    show = progress is True or (progress == "auto" and sys.stderr.isatty())
-    parts = []
-    if client is None:
-        _IN_PROCESS.clear()
-        _IN_PROCESS[spec_text] = method
-        for k, x in enumerate(chunks):
-            parts.append(_wall_chunk(spec_text, x, *args))
-            if show:
-                print(f"vpforms: wall chunk {k + 1}/{len(chunks)} done", file=sys.stderr)
-    else:
-        cl, owned = _client(client, workers)
-        try:
-            futs = [cl.submit(_wall_chunk, spec_text, x, *args, pure=False, retries=retries) for x in chunks]
-            for k, f in enumerate(futs):
-                parts.append(f.result())
-                if show:
-                    print(f"vpforms: wall chunk {k + 1}/{len(chunks)} done", file=sys.stderr)
-        finally:
-            _close(cl, owned)
-    hits = WallHits.concatenate(parts)
-    return dataclasses.replace(hits, backend=backend, backend_reason=reason)
+    (hits,), _ = trace_to_wall_chunks(method, x0, [h], n_steps, wall, t0=t0, chunk_particles=chunk_particles,
+                                      client=client, workers=workers, backend=backend, retries=retries,
+                                      progress=progress, builder=builder)
+    return hits

@@ -775,7 +775,20 @@ def field_spec(field: Any) -> dict:
         "closed_form": field.closed_form,
         "tol": field.tol,
         **({"potentials": pots} if pots else {}),
+        **_frame_spec(field),
     }
+
+
+def _frame_spec(field: Any) -> dict:
+    """The field's coordinates and periods where they are not the defaults (Cartesian, none): a
+    field in (u = R²/2, φ, Z) rebuilt without them would be traced as Cartesian (a Dask worker's
+    wall test, sections, |B|)."""
+    out = {}
+    if field.coordinates != "cartesian (x1, x2, x3)":
+        out["coordinates"] = field.coordinates
+    if any(p is not None for p in field.periods):
+        out["periods"] = [None if p is None else float(p) for p in field.periods]
+    return out
 
 
 @functools.lru_cache(maxsize=64)
@@ -794,6 +807,10 @@ def _field_from_json(text: str):
                          origin=tuple(spec["origin"]), quadrature_n=spec["quadrature_n"],
                          closed_form=spec["closed_form"], tol=spec["tol"])
     f.params = dict(spec.get("params", {}))
+    if "coordinates" in spec:
+        f.coordinates = spec["coordinates"]
+    if "periods" in spec:
+        f.periods = tuple(spec["periods"])
     return f
 
 

@@ -10,7 +10,10 @@
 * :func:`rotational_transform` / :func:`iota_profile` — ι (and q) of traced lines by weighted
   Birkhoff averages (super-polynomial convergence on invariant tori), with an error estimate;
 * :class:`Wall` / :func:`trace_to_wall` — an (R, Z) polygon wall: lines stop where they leave it
-  (status ``left_domain``), with the exit point on the wall, the connection length and transits.
+  (status ``left_domain``), with the exit point on the wall, the connection length and transits;
+* :func:`connection_length` — each line traced both ways to a wall: L_c = L_fwd + L_bwd, or a
+  lower bound with its own status where the wall is not reached; in process or on Dask workers;
+  :func:`start_grid` — starting points on an (R, Z) grid of a section, near the wall.
 
 Every study takes any vpforms method (``step_with_status``) of the field, so it inherits the
 method's exact volume preservation: invariant circles of the discrete map stay thin.
@@ -18,6 +21,7 @@ method's exact volume preservation: invariant circles of the discrete map stay t
 
 from __future__ import annotations
 
+from ._connection import ConnectionLengths, StartGrid, connection_length, start_grid
 from ._fixedpoints import FixedPoint, find_fixed_point, magnetic_axis
 from ._geometry import cylindrical, is_toroidal
 from ._islands import island_chain, scan_fixed_points
@@ -28,14 +32,17 @@ from ._wall import Wall, WallHits, trace_to_wall
 
 __all__ = [
     "AxisCurve",
+    "ConnectionLengths",
     "FixedPoint",
     "Iota",
     "ReturnMap",
+    "StartGrid",
     "ToroidalSection",
     "Wall",
     "WallHits",
     "axis_curve",
     "birkhoff_weight",
+    "connection_length",
     "cylindrical",
     "find_fixed_point",
     "iota_profile",
@@ -45,6 +52,7 @@ __all__ = [
     "return_map",
     "rotational_transform",
     "scan_fixed_points",
+    "start_grid",
     "toroidal_section",
     "trace_to_wall",
 ]
