@@ -39,11 +39,12 @@ from functools import lru_cache, partial
 import numpy as np
 
 from ..coils import device, device_axis, device_data, device_domain
+from ..domains import ToroidalDomain
 from ..toroidal import box_from_cylindrical, to_toroidal, toroidal_field
 from ._base import Problem
 from .coil_fields import spline_coil_field
 
-__all__ = ["GRID", "default", "grid_box", "grid_field", "make"]
+__all__ = ["DIVERTOR_INSET", "GRID", "default", "divertor_wall", "grid_box", "grid_field", "make"]
 
 SOURCE = ("vacuum field of the device's filamentary coils as shipped by simsopt (simsopt.configs.get_data; "
           "benchmarks/peers/make_devices.py), Hanson–Hirshman segments traced directly, no grid")
@@ -129,3 +130,47 @@ def grid_field(name: str, grid: tuple[int, int, int] = GRID, degree: int = 3, ru
 def default(name: str) -> Problem:
     """The cached default problem of the device ``name`` (built on first use)."""
     return make(name)
+
+
+#: per device: how far (m) :func:`divertor_wall` moves the default domain inward by default. W7-X's
+#: default domain lies 0.29 m outside the surface fitted to a line 0.24 m from the axis (just inside
+#: the last closed surface; ``device_data("w7x")["domain"]``): 0.24 m inward puts the wall 0.05 m
+#: outside that surface, through the 5/5 island chain (O-points 0.045 m outside it on the outboard
+#: midplane of φ = 0)
+DIVERTOR_INSET = {"w7x": 0.24}
+
+
+def divertor_wall(name: str = "w7x", inset: float | None = None) -> ToroidalDomain:
+    """A simple divertor-like wall: the device's default domain moved inward by ``inset`` (m; default
+    :data:`DIVERTOR_INSET`) along its in-plane normals, on each of its planes — a smooth wall that
+    cuts into the edge island chain, so that the lines of the islands and outside them reach it
+    after finite connection lengths while the closed surfaces inside never do.
+
+    A *model*, not the W7-X divertor: the real one is ten divertor units (target plates and baffles,
+    above and below the plasma in each field period) that cut the 5/5 islands only in some toroidal
+    and poloidal sectors; here the wall cuts the chain all round, at one distance from the fitted
+    surface (which itself is within 1.5 cm of a flux surface).
+
+    Raises
+    ------
+    ValueError
+        An unknown device, no default inset for it, an inset that is not > 0 or so large that a plane's
+        boundary would fold (the domain's validation names the plane).
+    """
+    key = device_data(name)["name"]
+    if inset is None:
+        if key not in DIVERTOR_INSET:
+            raise ValueError(f"{key}: no default divertor inset (known: {', '.join(DIVERTOR_INSET)}); give inset= (m)")
+        inset = DIVERTOR_INSET[key]
+    inset = float(inset)
+    if not (np.isfinite(inset) and inset > 0):
+        raise ValueError(f"inset must be > 0 (m, inward); got {inset}")
+    dom = device_domain(key)
+    R, Z = dom.R, dom.Z  # (planes, vertices), open polygons of the same orientation
+    tR = np.roll(R, -1, axis=1) - np.roll(R, 1, axis=1)  # the tangent by central differences
+    tZ = np.roll(Z, -1, axis=1) - np.roll(Z, 1, axis=1)
+    orient = np.sign(np.sum(R * np.roll(Z, -1, axis=1) - np.roll(R, -1, axis=1) * Z, axis=1))[:, None]  # shoelace
+    t = np.hypot(tR, tZ)
+    nR, nZ = orient * tZ / t, -orient * tR / t  # the outward normal
+    return ToroidalDomain(dom.phis, R - inset * nR, Z - inset * nZ, nfp=dom.nfp,
+                          name=f"{key} divertor-like wall (default domain moved {inset:g} m inward)")
