@@ -33,7 +33,8 @@ What was chosen, and why:
 Public API: :class:`TensorSpline`, :class:`PeriodicAntiderivative`, :class:`SplinePotential`,
 :class:`MGrid`, :func:`read_mgrid`, :func:`write_mgrid`, :class:`GridFileError`,
 :func:`cylindrical_potential`, :func:`gridded_field`, :func:`cartesian_grid_field`,
-:class:`GridReport`, :class:`GridWarning`.
+:class:`GridReport`, :class:`GridWarning`; :func:`refine_to_tol`, :class:`GridChoice` (a grid from a
+tolerance: issue #39).
 """
 
 from .. import _config  # noqa: F401  (float64)
@@ -46,11 +47,14 @@ from ._field import (
     gridded_field,
 )
 from ._spline_potential import SplinePotential
+from ._tolerance import GridChoice, GridRound, refine_to_tol
 from .mgrid import GridFileError, MGrid, read_mgrid, write_mgrid
 
 __all__ = [
+    "GridChoice",
     "GridFileError",
     "GridReport",
+    "GridRound",
     "GridWarning",
     "MGrid",
     "PeriodicAntiderivative",
@@ -60,5 +64,6 @@ __all__ = [
     "cylindrical_potential",
     "gridded_field",
     "read_mgrid",
+    "refine_to_tol",
     "write_mgrid",
 ]

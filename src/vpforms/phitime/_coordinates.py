@@ -299,7 +299,10 @@ class PhiTimeCoordinates:
                 new = u - f / fu
                 bad = ~jnp.isfinite(new) | (new < lo) | (new > hi)
                 new = jnp.where(bad, 0.5 * (lo + hi), new)
-                done = (jnp.abs(new - u) <= 2e-16 * jnp.abs(u)) | (f == 0) | (hi - lo <= 4e-16 * jnp.abs(u))
+                # a Newton step (not a bisection) of ≤ 1e-9·|u| leaves an error of about its square:
+                # converged (waiting for a step of 2e-16·|u| ran lanes to max_iter at rounding level)
+                done = ((~bad & (jnp.abs(new - u) <= 1e-9 * jnp.abs(u))) | (f == 0)
+                        | (hi - lo <= 4e-16 * jnp.abs(u)))
                 return new, lo, hi, it + 1, done
 
             init = (u0, jnp.asarray(u_lo, float), jnp.asarray(u_hi, float), jnp.int32(0), ~ok)

@@ -57,6 +57,8 @@ def phi_time_field(A: VectorPotential | Callable[[Any], Any], box: Any = None, *
     (degree ``degree``), so the field is a spline field that **runs natively** whatever A is (a spline
     of A, coils): :mod:`vpforms.phitime._spline`. It is still exactly divergence free; it differs
     from the exact φ-time field by the interpolation error of K, ``field.phi_time_spline_error``.
+    ``tol=`` (with ``region=``, ``max_memory=``; :func:`~vpforms.phitime.spline_phi_time_field`)
+    chooses that grid from a tolerance on b instead (``grid``, if given, is the first one tried).
 
     ``A`` may also be three **SymPy expressions** (A_u, A_φ, A_Z) in ``symbols`` = (u, φ, Z) (default:
     its free symbols named u, phi, Z; :func:`toroidal_potential_exprs` converts a Cartesian one;
@@ -101,10 +103,11 @@ def phi_time_field(A: VectorPotential | Callable[[Any], Any], box: Any = None, *
         A = ToroidalPotential(A, 1 if nfp is None else nfp)
     elif nfp is not None:
         raise ValueError("nfp is the potential's (ToroidalPotential(A, nfp)); do not pass it again")
-    level_v = ("auto" if grid is not None else "no") if level_v is None else level_v
+    splined = grid is not None or kw.get("tol") is not None
+    level_v = ("auto" if splined else "no") if level_v is None else level_v
     coords = PhiTimeCoordinates(A, box, u_ref=u_ref, inverse=inverse, a_u=a_u, level_v=level_v, margin=margin,
                                 n_check=n_check, quadrature_n=kw.get("quadrature_n", DEFAULT_N))
-    if grid is not None:
+    if splined:
         return spline_phi_time_field(coords, grid, degree=degree, name=name, **kw)
     C = PhiTimePotential(coords)
     yb = coords.ybox

@@ -33,8 +33,11 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .._phases import phase
+from ..domains import ToroidalDomain
 from ..fields import Field
 from ..grids import SplinePotential
+from ..grids._tolerance import DEFAULT_MAX_MEMORY, refine_to_tol, spline_nbytes
 from ._coordinates import PhiTimeCoordinates
 
 __all__ = ["spline_phi_time_field"]
@@ -42,7 +45,9 @@ __all__ = ["spline_phi_time_field"]
 
 def spline_phi_time_field(coords: PhiTimeCoordinates, grid: Any, *, degree: int = 3,
                           name: str = "phi-time field", n_check: int = 400, seed: int = 0,
-                          chunk: int = 1 << 16, cluster: float = 0.0, **kw: Any) -> Field:
+                          chunk: int = 1 << 16, cluster: float = 0.0, tol: float | None = None,
+                          region: ToroidalDomain | None = None, max_memory: float = DEFAULT_MAX_MEMORY,
+                          **kw: Any) -> Field:
     """The φ-time field of ``coords`` with K splined on a ``grid`` = (n_v, n_φ, n_Z) tensor grid of
     the (v, φ, Z) box ``coords.ybox`` (n_φ nodes per period of φ, uniform; n_v, n_Z with the box's
     ends, drawn towards them by ``cluster``: :func:`_clustered`), degree ``degree`` ≥ 3 per axis
@@ -57,33 +62,25 @@ def spline_phi_time_field(coords: PhiTimeCoordinates, grid: Any, *, degree: int 
 
     ``field.phi_time_spline_error`` is max |b_spline − b| / max |b| over ``n_check`` seeded points
     of the box, b = (−∂_ZK, 1, ∂_vK) of the exact K (U by Newton). Further keywords go to
-    :meth:`vpforms.Field.from_vector_potential` (``origin`` defaults to the box centre)."""
-    n = tuple(int(g) for g in grid)
-    if len(n) != 3 or any(g != t for g, t in zip(n, grid)):
-        raise ValueError(f"grid must be three node counts (n_v, n_φ, n_Z); got {grid!r}")
+    :meth:`vpforms.Field.from_vector_potential` (``origin`` defaults to the box centre).
+
+    ``tol`` (issue #39): the grid is chosen instead (``grid``: the first one tried, default
+    24 × 32 × 24) by :func:`vpforms.grids.refine_to_tol` until max |b_spline − b| / max |b| at 1000
+    seeded points of ``region`` (a :class:`~vpforms.domains.ToroidalDomain` in (R, φ, Z), mapped to
+    (v, φ, Z); default: the (v, φ, Z) box less 10 % of its v and Z widths at each end) is ≤ tol,
+    within ``max_memory`` bytes of coefficients; ``field.grid_choice`` reports it. b is compared with
+    the exact φ-time field *of the given A* (a spline of A has its own error against the coils)."""
     if not 0.0 <= float(cluster) <= 1.0:
         raise ValueError(f"cluster must be in [0, 1] (0 uniform, 1 Chebyshev–Lobatto); got {cluster!r}")
-    need = (degree + 1, degree, degree + 1)
-    if any(g < m for g, m in zip(n, need)):
-        raise ValueError(f"a degree-{degree} spline needs a grid of at least {need} nodes; got {n}")
-    (v0, v1), (p0, p1), (z0, z1) = coords.ybox
     T = coords.period
     if T is None:
         raise ValueError("a φ-time spline needs a φ-periodic potential (ToroidalPotential(A, nfp))")
-    nodes = (_clustered(v0, v1, n[0], cluster), p0 + T * np.arange(n[1]) / n[1], _clustered(z0, z1, n[2], cluster))
-    V, P, Z = (t.ravel() for t in np.meshgrid(*nodes, indexing="ij"))
-    K = jax.jit(jax.vmap(coords._K))
-    vals = np.concatenate([np.asarray(K(V[i:i + chunk], P[i:i + chunk], Z[i:i + chunk]))
-                           for i in range(0, V.size, chunk)])
-    if not np.all(np.isfinite(vals)):
-        i = int(np.flatnonzero(~np.isfinite(vals))[0])
-        raise ValueError(f"K is not finite at the node (v, φ, Z) = ({V[i]:.6g}, {P[i]:.6g}, {Z[i]:.6g}) "
-                         f"of the φ-time grid: U has no root in the u interval {coords.box[0]} there")
-    C = np.stack([np.zeros(V.size), vals, -V]).reshape(3, *n)
-    pot = SplinePotential.from_samples(
-        nodes, C, periodic=(False, T, False), degree=degree,
-        description=f"φ-time potential (0, K, −v), K splined on a {'×'.join(map(str, n))} (v, φ, Z) grid")
-    pot.affine = ((0, 0, 0, 0), None, (0, -1, 0, 0))  # C_v = 0 and C_Z = −v themselves, not splines
+    if tol is None:
+        n = _grid_of(grid, degree)
+        pot = _K_spline(coords, n, degree, cluster, chunk)
+    else:
+        n = _grid_of((24, 32, 24) if grid is None else grid, degree)
+        pot, choice = _K_spline_to_tol(coords, n, degree, cluster, chunk, tol, region, max_memory)
     kw.setdefault("origin", pot.center)
     field = Field.from_vector_potential(pot, box=pot.grid_box, name=name, **kw)
     field.coordinates = coords.describe() + f"; K splined on a {'×'.join(map(str, n))} grid (degree {degree})"
@@ -91,7 +88,94 @@ def spline_phi_time_field(coords: PhiTimeCoordinates, grid: Any, *, degree: int 
     field.phi_time = coords
     field.inside = pot.inside  # the grid's box: native emits it as the domain test
     field.phi_time_spline_error = _b_error(coords, pot, n_check, seed)
+    if tol is not None:
+        field.grid_choice = choice
     return field
+
+
+def _grid_of(grid: Any, degree: int) -> tuple[int, int, int]:
+    n = tuple(int(g) for g in grid)
+    if len(n) != 3 or any(g != t for g, t in zip(n, grid)):
+        raise ValueError(f"grid must be three node counts (n_v, n_φ, n_Z); got {grid!r}")
+    need = (degree + 1, degree, degree + 1)
+    if any(g < m for g, m in zip(n, need)):
+        raise ValueError(f"a degree-{degree} spline needs a grid of at least {need} nodes; got {n}")
+    return n
+
+
+def _K_nodes(coords: PhiTimeCoordinates, n: tuple[int, int, int], cluster: float) -> tuple[np.ndarray, ...]:
+    (v0, v1), (p0, _), (z0, z1) = coords.ybox
+    return (_clustered(v0, v1, n[0], cluster), p0 + coords.period * np.arange(n[1]) / n[1],
+            _clustered(z0, z1, n[2], cluster))
+
+
+def _K_spline(coords: PhiTimeCoordinates, n: tuple[int, int, int], degree: int, cluster: float,
+              chunk: int) -> SplinePotential:
+    """C = (0, K, −v) with K sampled on the n grid of the (v, φ, Z) box and splined."""
+    nodes = _K_nodes(coords, n, cluster)
+    V, P, Z = (t.ravel() for t in np.meshgrid(*nodes, indexing="ij"))
+    K = jax.jit(jax.vmap(coords._K))
+    with phase(f"sampling K at {V.size:,} nodes (U by Newton at each)"):
+        vals = np.concatenate([np.asarray(K(V[i:i + chunk], P[i:i + chunk], Z[i:i + chunk]))
+                               for i in range(0, V.size, chunk)])
+    if not np.all(np.isfinite(vals)):
+        i = int(np.flatnonzero(~np.isfinite(vals))[0])
+        raise ValueError(f"K is not finite at the node (v, φ, Z) = ({V[i]:.6g}, {P[i]:.6g}, {Z[i]:.6g}) "
+                         f"of the φ-time grid: U has no root in the u interval {coords.box[0]} there")
+    C = np.stack([np.zeros(V.size), vals, -V]).reshape(3, *n)
+    pot = SplinePotential.from_samples(
+        nodes, C, periodic=(False, coords.period, False), degree=degree,
+        description=f"φ-time potential (0, K, −v), K splined on a {'×'.join(map(str, n))} (v, φ, Z) grid")
+    pot.affine = ((0, 0, 0, 0), None, (0, -1, 0, 0))  # C_v = 0 and C_Z = −v themselves, not splines
+    pot.K_samples = vals.reshape(n)
+    return pot
+
+
+def _K_spline_to_tol(coords, start, degree, cluster, chunk, tol, region, max_memory):
+    """(spline potential, GridChoice): K's grid refined until the b error on ``region`` ≤ tol."""
+    (v0, v1), _, (z0, z1) = coords.ybox
+    if region is None:
+        lo = np.array([v0 + 0.1 * (v1 - v0), 0.0, z0 + 0.1 * (z1 - z0)])
+        hi = np.array([v1 - 0.1 * (v1 - v0), coords.period, z1 - 0.1 * (z1 - z0)])
+        pts = np.random.default_rng(1).uniform(lo, hi, (1000, 3))
+        pts[:, 1] += coords.ybox[1][0]
+        label = "the (v, φ, Z) box less 10 % at each v and Z end"
+    else:
+        q = region.sample(1000, seed=1)
+        x = np.stack([q[:, 0] ** 2 / 2, q[:, 1], q[:, 2]], axis=1)
+        pts = np.asarray(jax.jit(jax.vmap(coords.to_y))(jnp.asarray(x)))
+        lo_b, hi_b = np.array(coords.ybox).T
+        out = ~np.all(np.isfinite(pts) & (pts >= lo_b) & (pts <= hi_b), axis=1) & np.isfinite(pts[:, 1])
+        out |= ~np.isfinite(pts[:, 0])
+        if np.any(out):
+            i = int(np.flatnonzero(out)[0])
+            raise ValueError(f"the region {region.name!r} reaches outside the φ-time box (v, φ, Z) ∈ "
+                             f"{tuple(tuple(round(float(b), 6) for b in r) for r in coords.ybox)}: its point "
+                             f"(R, φ, Z) = ({q[i, 0]:.6g}, {q[i, 1]:.6g}, {q[i, 2]:.6g}) is at v = {pts[i, 0]:.6g} "
+                             f"({int(out.sum())} of {len(q)} points); use a smaller region or a larger grid of A")
+        label = f"the region {region.name!r}"
+    exact = _b_exact(coords, pts)
+    scale = float(np.max(np.abs(exact)))
+
+    def build(g):
+        pot = _K_spline(coords, g, degree, cluster, chunk)
+        nodes = _K_nodes(coords, g, cluster)
+        lo_, hi_ = pts.min(axis=0), pts.max(axis=0)  # the nodes near the region's (v, Z) extent
+        near_v = (nodes[0] >= lo_[0]) & (nodes[0] <= hi_[0])
+        near_z = (nodes[2] >= lo_[2]) & (nodes[2] <= hi_[2])
+        where = np.broadcast_to(near_v[:, None, None] & near_z[None, None, :], g)
+        return pot, pot.K_samples, where
+
+    def spacings(g):  # the coordinates' own: b = (−∂_ZK, 1, ∂_vK) is Δ_ZK/h_Z and Δ_vK/h_v
+        return ((v1 - v0) / (g[0] - 1), coords.period / g[1], (z1 - z0) / (g[2] - 1))
+
+    def estimate(pot):
+        return float(np.max(np.abs(np.asarray(pot.curl(pts)) - exact)) / scale)
+
+    return refine_to_tol(build, estimate, start, degree=degree, tol=tol, spacings=spacings,
+                         periodic=(False, True, False), derivatives=(0, 2), memory=spline_nbytes,
+                         max_memory=max_memory,
+                         n_check=len(pts), region=label, what="φ-time grid of K")
 
 
 def _clustered(lo: float, hi: float, n: int, c: float) -> np.ndarray:
@@ -103,15 +187,20 @@ def _clustered(lo: float, hi: float, n: int, c: float) -> np.ndarray:
     return x
 
 
+def _b_exact(coords: PhiTimeCoordinates, y: np.ndarray) -> np.ndarray:
+    """b = (−∂_ZK, 1, ∂_vK) of the exact K (U by Newton) at points y (n, 3) of (v, φ, Z)."""
+
+    def b(p):
+        dK = jax.grad(coords._K, argnums=(0, 2))(p[0], p[1], p[2])
+        return jnp.stack([-dK[1], jnp.ones_like(dK[0]), dK[0]])
+
+    return np.asarray(jax.jit(jax.vmap(b))(jnp.asarray(y)))
+
+
 def _b_error(coords: PhiTimeCoordinates, pot: Any, n: int, seed: int) -> float:
     """max |∇×C_spline − b| / max |b| at n seeded points of the spline's box (b of the exact K)."""
     lo, hi = np.array(pot.grid_box).T
     y = np.random.default_rng(seed).uniform(lo, hi, (n, 3))
-
-    def b_exact(p):
-        dK = jax.grad(coords._K, argnums=(0, 2))(p[0], p[1], p[2])
-        return jnp.stack([-dK[1], jnp.ones_like(dK[0]), dK[0]])
-
-    exact = np.asarray(jax.jit(jax.vmap(b_exact))(jnp.asarray(y)))
+    exact = _b_exact(coords, y)
     got = np.asarray(pot.curl(y))
     return float(np.max(np.abs(got - exact)) / np.max(np.abs(exact)))
