@@ -36,8 +36,11 @@ SHARED = REPO.parent / "shared"
 # and one entry left without it (a process killed while writing: the Dask tests kill workers)
 # makes every later write fail, so the cache silently stops growing.  Subprocesses (the CLI tests)
 # inherit it through the environment.  A user's own JAX_COMPILATION_CACHE_DIR wins;
-# VPFORMS_TEST_JAX_CACHE=0 turns it off (a cold run).
-if os.environ.get("VPFORMS_TEST_JAX_CACHE", "1") != "0":
+# VPFORMS_TEST_JAX_CACHE=0 turns it off (a cold run), also the `vpforms` command's own cache
+# (vpforms._cache.enable_jax_cache) in the CLI tests' subprocesses.
+if os.environ.get("VPFORMS_TEST_JAX_CACHE", "1") == "0":
+    os.environ["VPFORMS_JAX_CACHE"] = "0"
+else:
     os.environ.setdefault("JAX_COMPILATION_CACHE_DIR",
                           str(Path(platformdirs.user_cache_dir("vpforms")) / "jax-tests"))
     os.environ.setdefault("JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS", "0.5")

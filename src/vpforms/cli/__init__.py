@@ -24,6 +24,7 @@ from importlib.metadata import version as dist_version
 
 from rich.console import Console
 
+from .._cache import enable_jax_cache
 from .._version import __version__
 from . import demo, fieldlines, studies, tables, trace
 from ._common import CLIError, _Parser
@@ -61,7 +62,14 @@ def version() -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run the CLI; returns the exit code (0 ok, 1 failed computation, 2 bad arguments)."""
+    """Run the CLI; returns the exit code (0 ok, 1 failed computation, 2 bad arguments).
+
+    Run as the ``vpforms`` command (``argv`` None: the process's own arguments) it first turns on
+    JAX's persistent compilation cache in vpforms' cache folder (:func:`vpforms._cache.enable_jax_cache`:
+    a method on a spline or coil field compiles its checks once, not in every process); called
+    with ``argv`` from Python it leaves the calling process's JAX configuration alone."""
+    if argv is None:
+        enable_jax_cache()
     wide = not sys.stdout.isatty() and not os.environ.get("COLUMNS")
     console = Console(width=250) if wide else Console()  # tables don't wrap in pipes
     debug = bool(os.environ.get("VPFORMS_DEBUG"))

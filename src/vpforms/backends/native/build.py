@@ -1,9 +1,12 @@
 """Compile generated C once and cache the shared object (cffi + the system C compiler).
 
-The cache lives in ``platformdirs.user_cache_dir("vpforms")/native`` (override with the
-environment variable ``VPFORMS_NATIVE_CACHE``), keyed by a hash of source + flags + compiler
-version; a build writes into a private temporary directory and is published by ``os.replace``
-(atomic on POSIX), so concurrent processes never see a half-written object.
+The cache lives in ``native/`` of vpforms' cache folder (:func:`vpforms._cache.cache_root`:
+``VPFORMS_CACHE_DIR`` or ``platformdirs.user_cache_dir("vpforms")``; the environment variable
+``VPFORMS_NATIVE_CACHE`` names another folder), keyed by a hash of source + declarations + flags +
+compiler version + the CPU that ``-march=native`` resolves to (a folder shared by machines with
+other CPUs never hands one a kernel built for another); a build writes into a private temporary
+directory and is published by ``os.replace`` (atomic on POSIX), so concurrent processes never see
+a half-written object.
 ``VPFORMS_NATIVE_DISABLE=1`` makes :func:`available` report no compiler (tests, debugging).
 A compilation is a phase of :mod:`vpforms._phases` ("compiling the native kernel (… KB of C)"),
 announced on stderr for sources of :data:`ANNOUNCE_BYTES` or more (issue #41 item 2).
@@ -30,6 +33,7 @@ from contextlib import contextmanager
 from functools import lru_cache
 from pathlib import Path
 
+from ..._cache import cache_root
 from ..._phases import phase
 
 __all__ = ["FLAGS", "available", "build", "cache_dir", "compiler", "COUNTERS"]
@@ -38,8 +42,10 @@ __all__ = ["FLAGS", "available", "build", "cache_dir", "compiler", "COUNTERS"]
 #: working; -fdisable-tree-sincos stops the sin+cos → sincos fusion that has no vector variant.
 #: That pass also expands __builtin_powi, which -ffast-math's reassociation makes of x*x: without
 #: it every square becomes a scalar __powidf2 call (unvectorisable), so reassociation is off too.
+#: -g0 drops the debug information Python's own CFLAGS ask for (-g): nobody steps through a
+#: generated kernel, and gcc's variable tracking for it cost a quarter of a spline kernel's compile.
 FLAGS = ("-O3", "-march=native", "-ffast-math", "-fno-finite-math-only",
-         "-fdisable-tree-sincos", "-fdisable-tree-reassoc1", "-fdisable-tree-reassoc2", "-fopenmp")
+         "-fdisable-tree-sincos", "-fdisable-tree-reassoc1", "-fdisable-tree-reassoc2", "-fopenmp", "-g0")
 #: How many compilations / cache hits this process did (tests read it).
 COUNTERS = {"compiled": 0, "cache_hits": 0}
 #: a compilation of at least this much C is announced on stderr (vpforms._phases; gcc takes ~1 s per
@@ -52,12 +58,12 @@ _CAPTURE = threading.Lock()  # one redirection of the process's stdout/stderr at
 
 
 def cache_dir() -> Path:
+    """The folder of compiled kernels: ``VPFORMS_NATIVE_CACHE``, else ``native/`` of
+    :func:`vpforms._cache.cache_root`."""
     env = os.environ.get("VPFORMS_NATIVE_CACHE")
     if env:
         return Path(env)
-    import platformdirs
-
-    return Path(platformdirs.user_cache_dir("vpforms")) / "native"
+    return cache_root() / "native"
 
 
 def compiler() -> str | None:
@@ -78,6 +84,19 @@ def _version(cc: str) -> str:
         return ""
 
 
+@lru_cache(maxsize=8)
+def _target(cc: str) -> str:
+    """What ``-march=native`` means here: the compiler's own expansion of it (gcc's ``cc1`` line
+    with ``-march=znver3 -mavx512f …``; clang's ``-target-cpu``/``-target-feature`` s), for the
+    cache key."""
+    try:
+        out = subprocess.run([cc, "-march=native", "-E", "-v", "-x", "c", os.devnull, "-o", os.devnull],
+                             capture_output=True, text=True, timeout=30)
+    except (OSError, subprocess.SubprocessError):
+        return ""
+    return "\n".join(ln for ln in (out.stderr + out.stdout).splitlines() if "cc1" in ln)
+
+
 def available() -> tuple[bool, str]:
     """(True, compiler description) if native kernels can be built here, else (False, why)."""
     cc = compiler()
@@ -96,7 +115,7 @@ def build(source: str, cdef: str):
     cc = compiler()
     if cc is None:
         raise OSError("no C compiler found: install gcc")
-    key = hashlib.sha256("\0".join([source, cdef, " ".join(FLAGS), _version(cc)]).encode()).hexdigest()[:20]
+    key = hashlib.sha256("\0".join([source, cdef, " ".join(FLAGS), _version(cc), _target(cc)]).encode()).hexdigest()[:20]
     if key in _loaded:
         return _loaded[key]
     name = f"_vpk_{key}"

@@ -23,9 +23,8 @@ from ..._progress import _Bar, _is_terminal
 from ..._solution import make_solution, saved_steps
 from .._advance import advance_with_recovery, failed_steps, start_state
 from .build import build
-from .codegen import CDEF, kernel_parts
-from .codegen.sections import SECTIONS_CDEF
-from .codegen.walls import WALL_CDEF
+from .codegen import kernel_parts
+from .codegen.entries import entries_cdef
 
 __all__ = ["NativeKernel", "integrate_native", "run_points", "run_saving"]
 
@@ -43,7 +42,8 @@ class NativeKernel:
     def __init__(self, method: Any, engine: str = "auto", entry: str = "run"):
         self.method = method
         self.source, self.data = kernel_parts(method, engine, entry)
-        self.lib = build(self.source, {"run": CDEF, "sections": SECTIONS_CDEF, "wall": WALL_CDEF}[entry])
+        # the entries the source defines (one object for all of them where the stages are called)
+        self.lib = build(self.source, entries_cdef(self.source))
         from cffi import FFI
 
         self._ffi = FFI()

@@ -40,7 +40,7 @@ from ...._guard import FLOOR as GUARD_FLOOR
 from ...._methods._base import Method
 from ...._solution import describe
 from ....symbolic import _symbols as G
-from . import coils, data, ring, splines
+from . import coils, data, entries, ring, splines
 from .assign import _C, _assign, _gl_table
 from .cprinter import printer as _printer
 from .lanes import lane_code
@@ -57,6 +57,7 @@ from .potentials import (
     field_exprs,
     field_reason,
 )
+from .entries import RUN_CDEF, run_entry
 from .sections import sections_entry
 from .walls import speed_fn, wall_entry
 
@@ -65,8 +66,7 @@ __all__ = ["BLOCK", "CDEF", "kernel_parts", "kernel_source"]
 BLOCK = 64
 #: Newton iterations of the vectorised pass (see :func:`_newton_fixed_c`); only speed depends on it
 FIXED_ITERS = 5
-CDEF = ("void vp_run(int64_t N, double *x, int32_t *status, int64_t *n, int64_t n_target, double h, "
-        "int64_t save_every, int64_t n_total, double *xs, int64_t n_saves, const double *fd);")
+CDEF = RUN_CDEF
 
 
 #: glibc declares libmvec's vector variants only under __FAST_MATH__, which -fno-finite-math-only
@@ -348,10 +348,11 @@ def _rk4_body(field) -> list[str]:
 
 def _stage_fn(name: str, body: list[str], fixed: bool) -> str:
     """A stage: the exact one returns its status ``code``; the vectorised pass (``fixed``) its
-    success flag ``ok`` (1.0: converged, finite; anything else is redone exactly)."""
+    success flag ``ok`` (1.0: converged, finite; anything else is redone exactly). Its linkage is
+    ``_VP_STAGE`` (:func:`_kernel`: inlined, or compiled once and called)."""
     step = "\n    ".join(body)
     ret, init = ("double", "double ok = 1.0;") if fixed else ("int", "int code = 0;")
-    return f"""static inline _VP_INLINE {ret} {name}(double x1, double x2, double x3, double h,
+    return f"""static _VP_STAGE {ret} {name}(double x1, double x2, double x3, double h,
                            double *restrict o1, double *restrict o2, double *restrict o3,
                            const double *restrict fd) {{
     double X1, X2, X3; {init}
@@ -420,7 +421,7 @@ def _data(ref) -> str:
 def _step_fn(name: str, calls: list[str], fixed: bool, guard=([], [])) -> str:
     body = "\n    ".join([*guard[0], *calls, *guard[1]])
     init = "double ok = 1.0;" if fixed else "int code = 0, c;"
-    return f"""static inline _VP_INLINE {"double" if fixed else "int"} {name}(double x1, double x2, double x3, double h,
+    return f"""static _VP_STAGE {"double" if fixed else "int"} {name}(double x1, double x2, double x3, double h,
                           double *restrict o1, double *restrict o2, double *restrict o3,
                           const double *restrict fd) {{
     double y1 = x1, y2 = x2, y3 = x3; {init}
@@ -430,6 +431,17 @@ def _step_fn(name: str, calls: list[str], fixed: bool, guard=([], [])) -> str:
 }}
 """
 
+
+#: how the stages and the step are compiled (``_VP_STAGE``), by whether the kernel has a vectorised pass
+_STAGE_LINKAGE = {
+    True: "/* every stage inlined into the lane loop, however many (a call there blocks vectorisation) */\n"
+          "#define _VP_STAGE inline _VP_INLINE\n",
+    # no vectorised pass (splines, coils, quadratures: lanes step one at a time, a call costs
+    # nothing next to a stage): each stage is compiled once and called. Inlined into each of an
+    # order-4 composition's 10 calls and each entry's call sites, gcc took minutes (issue #41).
+    False: "/* no vectorised pass: each stage and the step compiled once, and called */\n"
+           "#define _VP_STAGE __attribute__((noinline))\n",
+}
 
 #: the vectorised pass of a kernel on quadrature potentials: it decides no lane (see kernel_source)
 _FAST_NONE = """static inline _VP_INLINE double vp_step_fast(double x1, double x2, double x3, double h,
@@ -450,8 +462,12 @@ def kernel_source(method: Any, engine: str = "auto", entry: str = "run") -> str:
 
 def kernel_parts(method: Any, engine: str = "auto", entry: str = "run") -> tuple[str, Any]:
     """(the C source of ``vp_run`` — or, with ``entry="sections"``, of ``vp_sections``; with
-    ``entry="wall"``, of ``vp_wall`` (:mod:`.walls`) — for ``method``, its run-time data ``fd``: the flat array of :func:`.data.field_data`, or None
-    for a field without data).
+    ``entry="wall"``, of ``vp_wall`` (:mod:`.walls`) — for ``method``, its run-time data ``fd``:
+    the flat array of :func:`.data.field_data`, or None for a field without data).
+
+    A kernel without a vectorised pass (splines, coils, quadratures: the stages are compiled once
+    and called) defines every entry the method allows in one source, whichever is asked for
+    (:mod:`.entries`; :func:`.entries.entries_cdef` declares them).
 
     ``engine="newton"`` iterates Newton on every solve, also where the equation is affine in its
     unknown (the same map; used to measure the engine against the closed form).
@@ -487,6 +503,7 @@ def _kernel(method: Any, engine: str, entry: str) -> str:
     field = getattr(method, "field", None) if isinstance(method, Method) else None
     kappa = getattr(method, "guard_kappa", None) if isinstance(method, Method) else None
     fns, steps = {}, {}
+    vectorised = True  # whether the kernel has a vectorised pass (see below)
     for kind, fixed in (("exact", False), ("fast", True)):
         if fixed and any(s in fns["exact"] + steps["exact"] for s in ("VP_GL_", "vp_cell(", "vp_coils")):
             # quadrature potentials: gcc vectorises the loops over the nodes, not the lane loop
@@ -494,6 +511,7 @@ def _kernel(method: Any, engine: str, entry: str) -> str:
             # exact early-exit step (measured 1.4× faster than FIXED_ITERS = 5 on ∇×(sin x₂x₃, …));
             # splines: gathers at data-dependent cells and a binary search, not vectorised either
             fns[kind], steps[kind] = "", _FAST_NONE
+            vectorised = False
             continue
         names: dict[str, str] = {}  # body → function name (stages with the same map share one)
         calls = []
@@ -511,41 +529,16 @@ def _kernel(method: Any, engine: str, entry: str) -> str:
     lanes = lane_code()
     # the Gauss–Legendre rules the quadrature potentials loop over (_gl_loops)
     tables = "".join(_gl_table(n) for n in sorted({int(k) for k in re.findall(r"VP_GL_T(\d+)\[", fns)}))
-    tail = (sections_entry(lanes) if entry == "sections" else _wall_c(method, lanes) if entry == "wall" else f"""/* Saves (save_every > 0): xs has shape (N, n_saves + 1, 3), slot 0 the initial state (not
-   written here), slot j the state after step j·save_every and slot n_saves after n_total (the last
-   step, saved even off the stride). A live lane at a saved step writes its slot; a lane that stops
-   (its status set, now or before this call) fills its later slots with its frozen state, as the
-   JAX loop saves a frozen particle. So one call runs a whole segment, however many saves it holds. */
-static inline int64_t vp_slot(int64_t c, int64_t se, int64_t n_total, int64_t n_saves) {{
-    if (c % se == 0) return c / se;
-    return c == n_total ? n_saves : -1;
-}}
-void vp_run(int64_t N, double *x, int32_t *status, int64_t *n, int64_t n_target, double h,
-            int64_t save_every, int64_t n_total, double *xs, int64_t n_saves, const double *fd) {{
-    int64_t nb = (N + B - 1) / B;
-    #pragma omp parallel for schedule(dynamic, 1) if (nb > 1)  /* one block: no thread team to wake and wait for */
-    for (int64_t b = 0; b < nb; b++) {{
-{lanes['load']}        for (int64_t k = nmin; k < n_target; k++) {{
-{lanes['step']}            if (save_every > 0) for (int i = 0; i < m; i++) {{
-                /* a live lane at a saved step writes its state (again, harmlessly, while it waits) */
-                if (st[i] != 0) continue;
-                int64_t j = vp_slot(nn[i], save_every, n_total, n_saves);
-                if (j > 0) {{
-                    double *o = xs + 3 * ((lo + i) * (n_saves + 1) + j);
-                    o[0] = a1[i]; o[1] = a2[i]; o[2] = a3[i];
-                }}
-            }}
-        }}
-        if (save_every > 0) for (int i = 0; i < m; i++) {{  /* frozen lanes: their later slots */
-            if (st[i] == 0) continue;
-            for (int64_t j = nn[i] / save_every + 1; j <= n_saves; j++) {{
-                double *o = xs + 3 * ((lo + i) * (n_saves + 1) + j);
-                o[0] = a1[i]; o[1] = a2[i]; o[2] = a3[i];
-            }}
-        }}
-{lanes['store']}    }}
-}}
-""")
+    # the entry asked for; without a vectorised pass every entry the method allows (.entries)
+    tails = []
+    for e in ((entry,) if vectorised or not entries.ONE_OBJECT else ("run", "sections", "wall")):
+        try:
+            tails.append(sections_entry(lanes) if e == "sections" else _wall_c(method, lanes) if e == "wall"
+                         else run_entry(lanes))
+        except ValueError:  # no wall tracing for this method: an error only where it was asked for
+            if e == entry:
+                raise
+    tail = "".join(tails)
     # helpers the stages and the entry call (the coils' segment loops, :mod:`.coils`)
     helpers = "".join(code for _, code in data.emission().helpers.values())
     return f"""
@@ -553,9 +546,8 @@ void vp_run(int64_t N, double *x, int32_t *status, int64_t *n, int64_t n_target,
 #include <stdint.h>
 #include <float.h>
 #define B {BLOCK}
-/* finite test that survives -ffast-math: NaN fails every comparison */
-/* every stage inlined into the lane loop, however many (a call there blocks vectorisation) */
 #define _VP_INLINE __attribute__((always_inline))
+{_STAGE_LINKAGE[vectorised]}/* finite test that survives -ffast-math: NaN fails every comparison */
 #define _VP_FINITE(a, b, c) ((fabs(a) <= DBL_MAX) & (fabs(b) <= DBL_MAX) & (fabs(c) <= DBL_MAX))
 {_SIMD_DECLS}
 {splines.C_HELPERS if "vp_cell(" in fns + steps else ""}{ring.C_HELPERS if "vp_ellip" in fns + steps else ""}

@@ -266,9 +266,10 @@ def spline_calls(exprs: list[Any], tag: str, printer: Any) -> tuple[list[str], l
             v = sp.Symbol(f"{tag}_l{em.count}")
             # the moving axis's cell, kept while the argument stays in it; on entering a cell, the
             # line there and its polynomial in y (vp_seg, vp_lpoly); then Horner for d^o/dy^o
+            line = _specialised(em, "vp_line", (*k, f))
             lines += [(f"double {v}_y; if (vp_seg(fd, {h}, {f}, {k[f]}, "
                        f"{printer.doprint(e_sub(a.args[3 + f]))}, &{q}_s, &{v}_y)) {{ "
-                       f"vp_line(fd, {h}, {k[0]}, {k[1]}, {k[2]}, {idx}, {f}, {fixed[0]}, {fixed[1]}, "
+                       f"{line}(fd, {h}, {idx}, {fixed[0]}, {fixed[1]}, "
                        f"{q}_L); vp_lpoly(fd, {h}, {f}, {k[f]}, {q}_s.i, {q}_L, {q}_P); }}"),
                       f"double {v} = vp_pn({k[f]}, {o[f]}, {q}_P, {v}_y);"]
             rep[a] = v
@@ -282,9 +283,10 @@ def spline_calls(exprs: list[Any], tag: str, printer: Any) -> tuple[list[str], l
         ax = [{n: _axis(em, ref, a, k[a], args[a], n, printer, lines)
                for n in sorted({m.orders[a] for m in members})} for a in range(3)]
         idx = ", ".join(ax[a][next(iter(ax[a]))][0] for a in range(3))
+        c0 = _specialised(em, "vp_c0", tuple(k))
         for o0 in sorted({m.orders[0] for m in members}):
-            lines.append(f"double {p}_b{o0}[{(k[1] + 1) * (k[2] + 1)}]; vp_c0(fd, {h}, {k[0]}, "
-                         f"{k[1]}, {k[2]}, {idx}, {ax[0][o0][1]}, {p}_b{o0});")
+            lines.append(f"double {p}_b{o0}[{(k[1] + 1) * (k[2] + 1)}]; {c0}(fd, {h}, {idx}, "
+                         f"{ax[0][o0][1]}, {p}_b{o0});")
         for o0, o1 in sorted({tuple(m.orders[:2]) for m in members}):
             lines.append(f"double {p}_b{o0}{o1}[{k[2] + 1}]; vp_c1({k[1]}, {k[2]}, {ax[1][o1][1]}, "
                          f"{p}_b{o0}, {p}_b{o0}{o1});")
@@ -295,6 +297,30 @@ def spline_calls(exprs: list[Any], tag: str, printer: Any) -> tuple[list[str], l
             rep[m] = v
     return lines, [e.xreplace(rep) for e in exprs]
 
+
+
+#: the contractions over a cell's coefficient block, specialised to constant degrees (and axis)
+_SPECIALISED = {
+    "vp_line": ("static _VP_STAGE void {name}(const double *fd, const double *h, int64_t i0, int64_t i1, "
+                "int64_t i2, const double *Na, const double *Nb, double *L) {{\n"
+                "    vp_line(fd, h, {0}, {1}, {2}, i0, i1, i2, {3}, Na, Nb, L);\n}}\n"),
+    "vp_c0": ("static _VP_STAGE void {name}(const double *fd, const double *h, int64_t i0, int64_t i1, "
+              "int64_t i2, const double *N0, double *P) {{\n"
+              "    vp_c0(fd, h, {0}, {1}, {2}, i0, i1, i2, N0, P);\n}}\n"),
+}
+
+
+def _specialised(em: Any, fn: str, consts: tuple) -> str:
+    """The name of ``vp_line`` / ``vp_c0`` for the constant degrees (and moving axis) ``consts``:
+    one function per kernel with its loops unrolled (``_VP_STAGE``: compiled once and called, as the
+    stages of a kernel without a vectorised pass — every spline kernel). Inlined at each of a
+    stage's ~50 evaluations, these unrolled blocks were half of gcc's time; called, the step costs
+    a few per cent more (issue #41, benchmarks/native/bench_compile.py)."""
+    key = ("splines", fn, tuple(int(c) for c in consts))
+    if key not in em.helpers:
+        name = f"{fn}_{''.join(str(c) for c in key[2])}"
+        em.helpers[key] = (name, _SPECIALISED[fn].format(*key[2], name=name))
+    return em.helpers[key][0]
 
 
 def _pack(o: TensorSpline, head: np.ndarray, put) -> None:
