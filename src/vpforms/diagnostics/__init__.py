@@ -45,10 +45,13 @@ from .poincare import (
     _refine_kernel,
     poincare_section,
 )
+from .steps import StepChoice, steps_for_tol
 from .twist import TwistMap, TwistRow, twist_map
 from .volume import LogDet, _logdet_kernel, log_det
 
 __all__ = [
+    "StepChoice",
+    "steps_for_tol",
     "LogDet",
     "log_det",
     "invariant_drift",

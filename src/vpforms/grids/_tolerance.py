@@ -7,12 +7,17 @@ spline of A; b = ∇×C for the φ-time K) on a region — the plasma domain, ne
 
 1. build the spline on the current grid n = (n₁, n₂, n₃) and **measure** its error e against the
    exact field at seeded random points of the region (the estimate);
-2. read, from the samples themselves, how much each axis contributes: along axis a the
-   (k+1)-th differences of the node values are Δ_aᵏ⁺¹f ≈ h_aᵏ⁺¹ ∂_aᵏ⁺¹f, and the error of the first
-   derivatives of a degree-k interpolant (the field) is O(h_aᵏ ∂_aᵏ⁺¹f), so
-   I_a = max |Δ_aᵏ⁺¹f| / h_a over the nodes near the region is axis a's term, up to a constant;
-3. **calibrate** e ≈ κ Σ_a I_a (κ from the measured e) and give each axis a third of the target
-   t = tol/√3 (the geometric middle of [tol/3, tol]): h_a ← h_a (t / (3 κ I_a))^{1/k};
+2. **measure each axis's share**: fit the same samples again with every other node of axis a
+   dropped (no new samples) and estimate that spline's error e_a; with a share s_a ∝ h_aᵖ, doubling
+   h_a gives e_a ≈ e + (2ᵖ − 1)s_a, so s_a = (e_a − e)/(2ᵖ − 1) (p = k for a field of first
+   derivatives of a degree-k spline; k + 1 along an axis the field does not differentiate along,
+   the φ of the φ-time K). Measured, not modelled: a model of the shares from the samples' own
+   (k+1)-th differences put the l = 2 stellarator's error in φ when it was in R and Z (three rounds
+   refined φ for nothing);
+3. give each axis a third of the target t = tol/√3 (the geometric middle of [tol/3, tol]):
+   h_a ← h_a (t / (3 s_a))^{1/p} (at most 4× finer, at least 0.75× as fine per round; never coarser
+   while e > tol). Node counts stay odd on open axes and even on periodic ones, so that every other
+   node is again a grid with the same ends;
 4. repeat until tol/3 ≤ e ≤ tol (or e ≤ tol when a coarser grid no longer reaches tol), at most
    ``max_rounds`` builds; the grid is never refined past ``max_memory`` (a clear error says what
    the tolerance would need).
@@ -32,7 +37,7 @@ import numpy as np
 
 from .._phases import phase
 
-__all__ = ["GridChoice", "GridRound", "TOL_FLOOR", "axis_indicators", "check_tol", "refine_to_tol", "spline_nbytes"]
+__all__ = ["GridChoice", "GridRound", "TOL_FLOOR", "check_tol", "refine_to_tol", "spline_nbytes"]
 
 #: below this relative field error the interpolant's own rounding (coefficients of size ~1, sums of
 #: (k+1)³ terms, a derivative divided by h) is of the same size: float64 cannot be asked for it
@@ -44,12 +49,15 @@ DEFAULT_MAX_MEMORY = 4 * 2**30
 
 @dataclass(frozen=True)
 class GridRound:
-    """One build of :func:`refine_to_tol`: its grid, the estimated error and the seconds it took."""
+    """One round of :func:`refine_to_tol`: its grid, the estimated error, the seconds of the round
+    (with the three coarser fits that measure the axes' shares), the bytes of its coefficients and
+    the seconds of its build alone (samples, fit, estimate)."""
 
     grid: tuple[int, int, int]
     estimate: float
     seconds: float
     memory: int
+    build_seconds: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -96,10 +104,11 @@ class GridChoice:
 
     def table(self) -> str:
         """The rounds as a Markdown table."""
-        rows = ["| round | grid | estimated error | memory (MiB) | seconds |", "|---:|---|---:|---:|---:|"]
+        rows = ["| round | grid | estimated error | memory (MiB) | build (s) | round, with the axes' shares (s) |",
+                "|---:|---|---:|---:|---:|---:|"]
         for i, r in enumerate(self.rounds):
             rows.append(f"| {i + 1} | {'×'.join(map(str, r.grid))} | {r.estimate:.2e} | "
-                        f"{r.memory / 2**20:.1f} | {r.seconds:.1f} |")
+                        f"{r.memory / 2**20:.1f} | {r.build_seconds:.1f} | {r.seconds:.1f} |")
         return "\n".join(rows)
 
 
@@ -127,86 +136,48 @@ def check_tol(tol: Any, what: str = "tol") -> float:
     return tol
 
 
-def axis_indicators(samples: Any, spacings: Sequence[float], degree: int, periodic: Sequence[bool],
-                    where: Any = None, derivatives: Sequence[int] = (0, 1, 2)) -> tuple[np.ndarray, np.ndarray]:
-    """Each axis's share of the error of a field made of first derivatives of a degree-k
-    interpolant of ``samples`` (shape (C, n₁, n₂, n₃); NaN at nodes not sampled), and the order of
-    that share (module docstring): the field holds ∂_d of the samples for d in ``derivatives``.
-
-    * axis a among them: the error of ∂_a is O(h_aᵏ ∂_aᵏ⁺¹f): I_a = max |Δ_aᵏ⁺¹f| / h_a, order k;
-    * axis a not among them (the φ of the φ-time K: b = (−∂_ZK, 1, ∂_vK)): interpolating along a
-      errs by O(h_aᵏ⁺¹ ∂_aᵏ⁺¹f) and ∂_d of that is the field's error: I_a = max_d |Δ_aᵏ⁺¹Δ_d f| / h_d,
-      order k + 1.
-
-    Maxima over the components and the nodes of ``where`` (bool (n₁, n₂, n₃), default all); h =
-    ``spacings`` in units that make Δ_d f / h_d the field's components. Periodic axes wrap.
-    Returns (I, orders), each of shape (3,)."""
-    s = np.asarray(samples, dtype=float)
-    if s.ndim == 3:
-        s = s[None]
-    k1 = int(degree) + 1
-    w = None if where is None else np.broadcast_to(np.asarray(where, bool), s.shape[1:])
-
-    def diff(d, a, n):  # n-th forward differences along axis a (wrapped where periodic), same shape
-        if periodic[a]:
-            for _ in range(n):
-                d = np.roll(d, -1, axis=a + 1) - d
-            return d
-        out = np.full(d.shape, np.nan)
-        if d.shape[a + 1] > n:
-            idx = [slice(None)] * d.ndim
-            idx[a + 1] = slice(0, d.shape[a + 1] - n)
-            out[tuple(idx)] = np.diff(d, n=n, axis=a + 1)
-        return out
-
-    def peak(m):
-        if w is not None:
-            m = np.where(w[None], m, np.nan)
-        m = np.abs(m)
-        return float(np.nanmax(m)) if np.any(np.isfinite(m)) else 0.0
-
-    I, orders = np.zeros(3), np.zeros(3, int)
-    for a in range(3):
-        if not periodic[a] and s.shape[a + 1] <= k1:
-            I[a], orders[a] = np.inf, k1 - 1  # too few nodes to see the (k+1)-th derivative: refine
-            continue
-        if a in derivatives:
-            I[a], orders[a] = peak(diff(s, a, k1)) / float(spacings[a]), k1 - 1
-        else:
-            I[a] = max(peak(diff(diff(s, d, 1), a, k1)) / float(spacings[d]) for d in derivatives)
-            orders[a] = k1
-    return I, orders
+def _every_other(n: int, periodic: bool) -> slice | None:
+    """The nodes of the grid twice as coarse along an axis of n nodes (same ends), or None."""
+    if periodic:
+        return slice(0, None, 2) if n % 2 == 0 else None
+    return slice(0, None, 2) if n % 2 == 1 else None
 
 
-def refine_to_tol(build: Callable[[tuple[int, int, int]], tuple[Any, Any, Any]],
+def _count(x: float, periodic: bool, least: int) -> int:
+    """A node count ≥ least near x: even on a periodic axis, odd on an open one."""
+    n = max(int(math.ceil(x)), least)
+    return n + (n % 2 if periodic else 1 - n % 2)
+
+
+def refine_to_tol(sample: Callable[[tuple[int, int, int]], Any],
+                  fit: Callable[[Any, tuple[slice, slice, slice]], Any],
                   estimate: Callable[[Any], float], start: Sequence[int], *, degree: int, tol: float,
-                  spacings: Callable[[tuple[int, int, int]], Sequence[float]], periodic: Sequence[bool],
-                  memory: Callable[[Any], int], derivatives: Sequence[int] = (0, 1, 2), max_memory: float = DEFAULT_MAX_MEMORY,
-                  max_rounds: int = 6, n_check: int = 0, region: str = "", what: str = "grid",
-                  ) -> tuple[Any, GridChoice]:
+                  periodic: Sequence[bool], memory: Callable[[Any], int], orders: Sequence[int] | None = None,
+                  max_memory: float = DEFAULT_MAX_MEMORY, max_rounds: int = 6, n_check: int = 0,
+                  region: str = "", what: str = "grid") -> tuple[Any, GridChoice]:
     """Refine a spline grid until its estimated field error is ≤ ``tol`` (module docstring).
 
     Parameters
     ----------
-    build : callable
-        grid (n₁, n₂, n₃) → (object, samples (C, n₁, n₂, n₃), where (bool (n₁, n₂, n₃) or None)):
-        the spline built on that grid, its node samples and the nodes near the region.
+    sample : callable
+        grid (n₁, n₂, n₃) → the samples on that grid (any object ``fit`` takes).
+    fit : callable
+        (samples, (s₁, s₂, s₃)) → the spline fitted on the sub-grid of the slices sᵢ of the nodes
+        (``slice(None)``: all; ``slice(0, None, 2)``: every other node).
     estimate : callable
-        object → its relative field error on the region (max over seeded points).
+        spline → its relative field error on the region (max over seeded points).
     start : sequence of int
-        The first grid.
+        The first grid (rounded to odd / even node counts).
     degree : int
-        The spline degree (the field error is O(hᵏ)).
+        The spline degree k.
     tol : float
         The tolerance (:func:`check_tol`).
-    spacings : callable
-        grid → the node spacing per axis in physical units (φ as arclength).
     periodic : sequence of bool
         Which axes are periodic (node count = intervals).
-    derivatives : sequence of int
-        The axes along which the field differentiates the samples (:func:`axis_indicators`).
     memory : callable
-        object → bytes of its coefficients (the budget is checked on the prediction before a build).
+        spline → bytes of its coefficients (the budget is checked on the prediction before a build).
+    orders : sequence of int, optional
+        The order of the field's error along each axis (default k on every axis).
     max_memory : float
         Budget in bytes for one grid.
     max_rounds : int
@@ -220,17 +191,21 @@ def refine_to_tol(build: Callable[[tuple[int, int, int]], tuple[Any, Any, Any]],
 
     Returns
     -------
-    (object, GridChoice)
+    (spline, GridChoice)
     """
     tol = check_tol(tol)
     k = int(degree)
+    p = tuple(int(o) for o in (orders if orders is not None else (k, k, k)))
     lo = tuple(k if periodic[a] else k + 1 for a in range(3))
-    n = tuple(max(int(g), m) for g, m in zip(start, lo))
+    # the every-other-node grid must still hold a spline: 2·least (− 1) nodes
+    least = tuple(2 * m if periodic[a] else 2 * m - 1 for a, m in enumerate(lo))
+    n = tuple(_count(g, periodic[a], least[a]) for a, g in enumerate(start))
     t_all = time.perf_counter()
     rounds: list[GridRound] = []
     best: tuple[Any, GridRound] | None = None  # the coarsest grid that met tol
     bytes_per_node = None
     target = tol / math.sqrt(3.0)
+    full = (slice(None),) * 3
     for r in range(int(max_rounds)):
         nodes = int(np.prod(n))
         if bytes_per_node is not None and nodes * bytes_per_node > max_memory:
@@ -244,38 +219,43 @@ def refine_to_tol(build: Callable[[tuple[int, int, int]], tuple[Any, Any, Any]],
                 "or a larger tol")
         t = time.perf_counter()
         with phase(f"round {r + 1}: the {'×'.join(map(str, n))} {what}"):
-            obj, samples, where = build(n)
+            data = sample(n)
+            obj = fit(data, full)
             e = float(estimate(obj))
+        t_build = time.perf_counter() - t
         mem = int(memory(obj))
         bytes_per_node = mem / nodes
-        rounds.append(GridRound(n, e, time.perf_counter() - t, mem))
         if not math.isfinite(e):
             raise ValueError(f"{what}: the {'×'.join(map(str, n))} grid's error estimate is {e} (NaN "
                              "or infinite samples in the region?)")
         if e <= tol and (best is None or nodes < int(np.prod(best[1].grid))):
-            best = (obj, rounds[-1])
-        if tol / 3 <= e <= tol:
+            best = (obj, GridRound(n, e, time.perf_counter() - t, mem, t_build))
+        done = (tol / 3 <= e <= tol) or (e > tol and best is not None) or r == int(max_rounds) - 1
+        if done:
+            rounds.append(GridRound(n, e, time.perf_counter() - t, mem, t_build))
             break
-        if e > tol and best is not None:
-            break  # a coarser try missed tol after a finer one met it: keep the finer one
-        I, orders = axis_indicators(samples, spacings(n), k, periodic, where, derivatives)
-        if not np.all(np.isfinite(I)):
-            grow = [2.0 if not np.isfinite(v) else 1.0 for v in I]
-        else:
-            total = float(np.sum(I))
-            if total <= 0:  # the samples are polynomial of degree ≤ k: the grid is exact already
+        # each axis's share, from the same samples fitted with every other node of that axis
+        share = np.zeros(3)
+        with phase(f"round {r + 1}: each axis's share of the error (three coarser fits)"):
+            for a in range(3):
+                sub = _every_other(n[a], periodic[a])
+                e_a = float(estimate(fit(data, tuple(sub if b == a else slice(None) for b in range(3)))))
+                share[a] = max(e_a - e, 0.0) / (2.0 ** p[a] - 1.0) if math.isfinite(e_a) else e
+        rounds.append(GridRound(n, e, time.perf_counter() - t, mem, t_build))
+        if share.sum() <= 0:  # coarser along every axis is no worse: the error is not the grid's
+            if e <= tol:
                 break
-            kappa = e / total
-            share = np.maximum(I * kappa, 1e-300)
-            grow = [min(4.0, max(0.5, (3 * sh / target) ** (1 / p))) for sh, p in zip(share, orders)]
-            if e > tol:  # never coarsen an axis while the error is above tol
-                grow = [max(1.0, g) for g in grow]
-        new = tuple(max(m, int(math.ceil(g * (c if periodic[a] else c - 1))) + (0 if periodic[a] else 1))
-                    for a, (g, c, m) in enumerate(zip(grow, n, lo)))
+            share[:] = e / 3
+        share *= e / max(share.sum(), e)  # the shares do not add up to more than the error
+        grow = [min(4.0, max(0.75, (3 * max(sh, 1e-300) / target) ** (1.0 / pa))) for sh, pa in zip(share, p)]
+        if e > tol:  # never coarsen an axis while the error is above tol
+            grow = [max(1.0, g) for g in grow]
+        new = tuple(_count(g * (c if periodic[a] else c - 1) + (0 if periodic[a] else 1), periodic[a], least[a])
+                    for a, (g, c) in enumerate(zip(grow, n)))
         if new == n:
-            if e > tol:  # the model asks for nothing more: refine the worst axis by itself
-                a = int(np.argmax(I)) if np.all(np.isfinite(I)) else 0
-                new = tuple(c + max(1, c // 4) if i == a else c for i, c in enumerate(n))
+            if e > tol:  # the shares ask for nothing more: refine the largest by itself
+                a = int(np.argmax(share))
+                new = tuple(_count(c * 1.25, periodic[b], least[b]) if b == a else c for b, c in enumerate(n))
             else:
                 break
         n = new

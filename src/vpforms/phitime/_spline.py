@@ -113,6 +113,12 @@ def _K_spline(coords: PhiTimeCoordinates, n: tuple[int, int, int], degree: int, 
               chunk: int) -> SplinePotential:
     """C = (0, K, −v) with K sampled on the n grid of the (v, φ, Z) box and splined."""
     nodes = _K_nodes(coords, n, cluster)
+    return _C_spline(coords, nodes, _K_samples(coords, nodes, chunk), degree)
+
+
+def _K_samples(coords: PhiTimeCoordinates, nodes: tuple[np.ndarray, ...], chunk: int) -> np.ndarray:
+    """C = (0, K, −v) at the nodes, shape (3, n_v, n_φ, n_Z)."""
+    n = tuple(x.size for x in nodes)
     V, P, Z = (t.ravel() for t in np.meshgrid(*nodes, indexing="ij"))
     K = jax.jit(jax.vmap(coords._K))
     with phase(f"sampling K at {V.size:,} nodes (U by Newton at each)"):
@@ -122,12 +128,16 @@ def _K_spline(coords: PhiTimeCoordinates, n: tuple[int, int, int], degree: int, 
         i = int(np.flatnonzero(~np.isfinite(vals))[0])
         raise ValueError(f"K is not finite at the node (v, φ, Z) = ({V[i]:.6g}, {P[i]:.6g}, {Z[i]:.6g}) "
                          f"of the φ-time grid: U has no root in the u interval {coords.box[0]} there")
-    C = np.stack([np.zeros(V.size), vals, -V]).reshape(3, *n)
+    return np.stack([np.zeros(V.size), vals, -V]).reshape(3, *n)
+
+
+def _C_spline(coords: PhiTimeCoordinates, nodes: tuple[np.ndarray, ...], C: np.ndarray, degree: int) -> SplinePotential:
+    """The spline potential of the samples C = (0, K, −v) on ``nodes``."""
+    n = tuple(x.size for x in nodes)
     pot = SplinePotential.from_samples(
         nodes, C, periodic=(False, coords.period, False), degree=degree,
         description=f"φ-time potential (0, K, −v), K splined on a {'×'.join(map(str, n))} (v, φ, Z) grid")
     pot.affine = ((0, 0, 0, 0), None, (0, -1, 0, 0))  # C_v = 0 and C_Z = −v themselves, not splines
-    pot.K_samples = vals.reshape(n)
     return pot
 
 
@@ -157,24 +167,20 @@ def _K_spline_to_tol(coords, start, degree, cluster, chunk, tol, region, max_mem
     exact = _b_exact(coords, pts)
     scale = float(np.max(np.abs(exact)))
 
-    def build(g):
-        pot = _K_spline(coords, g, degree, cluster, chunk)
+    def sample(g):
         nodes = _K_nodes(coords, g, cluster)
-        lo_, hi_ = pts.min(axis=0), pts.max(axis=0)  # the nodes near the region's (v, Z) extent
-        near_v = (nodes[0] >= lo_[0]) & (nodes[0] <= hi_[0])
-        near_z = (nodes[2] >= lo_[2]) & (nodes[2] <= hi_[2])
-        where = np.broadcast_to(near_v[:, None, None] & near_z[None, None, :], g)
-        return pot, pot.K_samples, where
+        return nodes, _K_samples(coords, nodes, chunk)
 
-    def spacings(g):  # the coordinates' own: b = (−∂_ZK, 1, ∂_vK) is Δ_ZK/h_Z and Δ_vK/h_v
-        return ((v1 - v0) / (g[0] - 1), coords.period / g[1], (z1 - z0) / (g[2] - 1))
+    def fit(data, sub):
+        nodes, C = data
+        return _C_spline(coords, tuple(x[s_] for x, s_ in zip(nodes, sub)), C[(slice(None), *sub)], degree)
 
     def estimate(pot):
         return float(np.max(np.abs(np.asarray(pot.curl(pts)) - exact)) / scale)
 
-    return refine_to_tol(build, estimate, start, degree=degree, tol=tol, spacings=spacings,
-                         periodic=(False, True, False), derivatives=(0, 2), memory=spline_nbytes,
-                         max_memory=max_memory,
+    # b = (−∂_ZK, 1, ∂_vK) does not differentiate along φ: φ's share is O(h_φᵏ⁺¹)
+    return refine_to_tol(sample, fit, estimate, start, degree=degree, tol=tol, periodic=(False, True, False),
+                         orders=(degree, degree + 1, degree), memory=spline_nbytes, max_memory=max_memory,
                          n_check=len(pts), region=label, what="φ-time grid of K")
 
 

@@ -125,30 +125,34 @@ def spline_coil_field(coils: CoilSet, R: tuple, Z: tuple, *, n_R: int | None = N
     if domain is not None:
         domain.check_within(R, Z, f"the grid of {name}")
     inner_R, inner_Z = (R[0] + margin, R[1] - margin), (Z[0] + margin, Z[1] - margin)
+
+    def sample(g):  # A on the n_R × n_φ × n_Z grid (at the mask's nodes where a domain is given)
+        Rn, Zn = np.linspace(*R, g[0]), np.linspace(*Z, g[2])
+        phin = 2 * np.pi / nfp * np.arange(g[1]) / g[1]
+        mask = None if domain is None else _domain_mask(coils, domain, Rn, phin, Zn, pad, clearance, name)
+        with phase(f"sampling the vector potential of {name} at "  # issue #41: said, timed
+                   f"{Rn.size * phin.size * Zn.size if mask is None else int(mask.sum()):,} grid nodes"):
+            return (Rn, phin, Zn), _sample_A(coils, Rn, phin, Zn, mask), mask
+
+    def fit(data, sub):  # the spline of those samples on the sub-grid sub (slices of the nodes)
+        (Rn, phin, Zn), A, mask = data
+        with phase(f"fitting the {Rn[sub[0]].size}×{phin[sub[1]].size}×{Zn[sub[2]].size} spline of A"):
+            return cylindrical_potential(Rn[sub[0]], phin[sub[1]], Zn[sub[2]], nfp=nfp, A=A[(slice(None), *sub)],
+                                         source=f"{name} coils", mask=None if mask is None else mask[sub],
+                                         degree=degree)[0]
+
     if tol is None:
         grid = (n_R or 40, n_phi or 32, n_Z or 40)
-        pot = _build_coil_spline(coils, R, Z, grid, name, domain, pad, degree, clearance)[0]
+        pot = fit(sample(grid), (slice(None),) * 3)
     else:  # issue #39: the grid from the tolerance (vpforms.grids.refine_to_tol)
         where = region if region is not None else domain
         label = (f"the region {where.name!r}" if where is not None else
                  f"the box R ∈ [{inner_R[0]:g}, {inner_R[1]:g}], Z ∈ [{inner_Z[0]:g}, {inner_Z[1]:g}]")
 
-        def build(g):
-            pot, samples, (Rn, phin, Zn) = _build_coil_spline(coils, R, Z, g, name, domain, pad, degree, clearance)
-            near = (where.node_mask(Rn, phin, Zn, pad=degree + 1) if where is not None else
-                    np.broadcast_to(((Rn >= inner_R[0]) & (Rn <= inner_R[1]))[:, None, None]
-                                    & ((Zn >= inner_Z[0]) & (Zn <= inner_Z[1]))[None, None, :],
-                                    (Rn.size, phin.size, Zn.size)))
-            return pot, samples, near
-
-        def spacings(g):  # physical: ΔR, R_mid·Δφ, ΔZ
-            return ((R[1] - R[0]) / (g[0] - 1), 0.5 * (R[0] + R[1]) * 2 * np.pi / nfp / g[1], (Z[1] - Z[0]) / (g[2] - 1))
-
-        start = (n_R or 24, n_phi or 16, n_Z or 24)
         pot, choice = refine_to_tol(
-            build, lambda pot: _spline_error(pot.curl, coils, None, inner_R, inner_Z, nfp, seed=1, n=n_check,
-                                             domain=where),
-            start, degree=degree, tol=tol, spacings=spacings, periodic=(False, True, False),
+            sample, fit, lambda pot: _spline_error(pot.curl, coils, None, inner_R, inner_Z, nfp, seed=1, n=n_check,
+                                                   domain=where),
+            (n_R or 25, n_phi or 16, n_Z or 25), degree=degree, tol=tol, periodic=(False, True, False),
             memory=spline_nbytes, max_memory=max_memory, n_check=n_check, region=label,
             what=f"spline of A of {name}")
     field = _coil_field(pot, nfp, name, domain)
@@ -157,22 +161,6 @@ def spline_coil_field(coils: CoilSet, R: tuple, Z: tuple, *, n_R: int | None = N
     with phase("measuring the spline's error against the coils at 400 points"):
         err = _spline_error(field, coils, None, inner_R, inner_Z, nfp, domain=domain)
     return field, err
-
-
-def _build_coil_spline(coils, R, Z, grid, name, domain, pad, degree, clearance):
-    """(spline of A, its samples (3, n_R, n_φ, n_Z) with NaN off the mask, the node arrays) of
-    :func:`spline_coil_field` on one grid."""
-    n_R, n_phi, n_Z = (int(g) for g in grid)
-    nfp = coils.nfp
-    Rn, Zn = np.linspace(*R, n_R), np.linspace(*Z, n_Z)
-    phin = 2 * np.pi / nfp * np.arange(n_phi) / n_phi
-    mask = None if domain is None else _domain_mask(coils, domain, Rn, phin, Zn, pad, clearance, name)
-    nodes = n_R * n_phi * n_Z if mask is None else int(np.count_nonzero(mask))
-    with phase(f"sampling the vector potential of {name} at {nodes:,} grid nodes"):  # issue #41: said, timed
-        A = _sample_A(coils, Rn, phin, Zn, mask)
-    with phase(f"fitting the {n_R}×{n_phi}×{n_Z} spline of A"):
-        pot, _ = cylindrical_potential(Rn, phin, Zn, nfp=nfp, A=A, source=f"{name} coils", mask=mask, degree=degree)
-    return pot, A, (Rn, phin, Zn)
 
 
 def _coil_field(pot, nfp, name, domain):
