@@ -34,12 +34,15 @@ CHILD = textwrap.dedent("""
     folder = enable_jax_cache()
     jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)  # this one compiles fast
     events = []
-    jax.monitoring.register_event_listener(lambda e, **k: events.append(e))
     shift, order = float(sys.argv[1]), int(sys.argv[2])
-    # a computation on data, as a spline's potentials check closes over its coefficients
+    # a computation on data, as a spline's potentials check closes over its coefficients; the
+    # cache's events of its compilation alone
     c = np.linspace(0.0, 1.0, 2000)
     c[7] += shift
+    listen = lambda e, **k: events.append(e)
+    jax.monitoring.register_event_listener(listen)
     value = float(jax.jit(lambda x: jnp.sum(jnp.sin(x * jnp.asarray(c))))(0.5))
+    jax.monitoring.unregister_event_listener(listen)
     native = None
     if sys.argv[3] == "1":
         field = problems.get("abc").field

@@ -24,7 +24,7 @@ from ..._solution import make_solution, saved_steps
 from .._advance import advance_with_recovery, failed_steps, start_state
 from .build import build
 from .codegen import kernel_parts
-from .codegen.entries import entries_cdef
+from .codegen.entries import ENTRIES, entries_cdef
 
 __all__ = ["NativeKernel", "integrate_native", "run_points", "run_saving"]
 
@@ -102,9 +102,14 @@ class NativeKernel:
 
 _kernels: dict[tuple[int, str, str], tuple[Any, NativeKernel]] = {}
 def kernel_for(method: Any, engine: str = "auto", entry: str = "run") -> NativeKernel:
+    """The kernel of ``method`` with ``entry``, made once per method object; a kernel made for
+    another entry serves where its object holds this one too (:mod:`.codegen.entries`)."""
     hit = _kernels.get((id(method), engine, entry))
     if hit is None or hit[0] is not method:
-        hit = (method, NativeKernel(method, engine, entry))
+        mark = ENTRIES[entry][0]
+        other = next((k for (i, e, _), (m, k) in _kernels.items()
+                      if i == id(method) and e == engine and m is method and mark in k.source), None)
+        hit = (method, other if other is not None else NativeKernel(method, engine, entry))
         _kernels[(id(method), engine, entry)] = hit
     return hit[1]
 
