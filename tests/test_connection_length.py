@@ -283,10 +283,21 @@ def test_dask_equals_in_process_bit_for_bit(drift, threaded_client):
 @native
 @pytest.mark.slow  # a LocalCluster of 2 worker processes (~20 s to start, rebuild and load the kernel there)
 def test_dask_worker_processes_equal_in_process(tok):
+    """Two worker processes, the method rebuilt there from its spec (a field in (u, φ, Z): the spec
+    keeps its coordinates) and by the command's builder: equal bit for bit to one in-process run."""
+    from vpforms.cli import build_parser
+    from vpforms.cli import fieldlines as fl
+
     m, x0, wall = tok
     one = connection_length(m, x0, 0.05, 600, wall, progress=False)
     par = connection_length(m, x0, 0.05, 600, wall, client=2, chunk_lines=2, progress=False)  # the spec route
     assert par.where == "Dask, 2 worker thread(s)"
+    _same(par, one)
+    args = build_parser().parse_args(["fieldlines", "--order", "2"])  # the tokamak in (u, φ, Z), as tok
+    b = fl.method_builder(args)
+    mc = b()
+    one = connection_length(mc, x0, 0.05, 600, wall, progress=False)
+    par = connection_length(mc, x0, 0.05, 600, wall, client=2, chunk_lines=2, progress=False, builder=b)
     _same(par, one)
 
 
@@ -312,3 +323,88 @@ def test_start_grid_fills_the_band_inside_the_wall():
         start_grid(wall, 0)
     with pytest.raises(TypeError, match="wall must be a Wall"):
         start_grid([1, 2], 10)
+
+
+# ------------------------------------------------------------------------------ the command line
+@pytest.mark.parametrize("argv, needle", [
+    (["--lc-depth", "0.1"], "--lc-depth does nothing without --connection-length N"),
+    (["--lc-transits", "3", "--lc-workers", "2"], "--lc-transits, --lc-workers do nothing without --connection-length"),
+    (["--connection-length", "10"], "--connection-length needs a wall: --wall default, divertor or"),
+    (["--wall", "divertor"], "--wall divertor is a device's model wall: give --device (w7x)"),
+    (["--connection-length", "10", "--wall", "default", "--lc-png", "x.txt"], "--lc-png 'x.txt': the name must end in"),
+])
+def test_cli_connection_length_arguments_are_one_clean_line(argv, needle, capsys, tmp_path):
+    from vpforms.cli import main
+
+    outs = ["--png", str(tmp_path / "a.png"), "--iota-png", str(tmp_path / "b.png"), "--csv", str(tmp_path / "c.csv")]
+    assert main(["fieldlines", *argv, *outs]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("vpforms: error: ") and needle in err[0], err
+
+
+def test_cli_builder_rebuilds_the_commands_method():
+    """The command's builder (what Dask workers call) pickles and builds the method the command traces."""
+    import pickle
+
+    from vpforms.cli import build_parser
+    from vpforms.cli import fieldlines as fl
+    from vpforms.cli._common import _method_from_args
+
+    args = build_parser().parse_args(["fieldlines", "--order", "2", "--h", "0.05"])
+    b = pickle.loads(pickle.dumps(fl.method_builder(args)))
+    field = fl._field_source(args)[0]
+    assert b().spec() == _method_from_args(args, field).spec()
+
+
+def test_divertor_wall_is_the_default_domain_moved_inward():
+    """Every vertex of W7-X's model wall lies ``inset`` inside the default domain (its in-plane
+    distance to the domain's boundary at the same φ, to the polygons' discretisation), the default
+    inset is DIVERTOR_INSET; bad insets are refused."""
+    from vpforms.coils import device_domain
+    from vpforms.problems.devices import DIVERTOR_INSET, divertor_wall
+
+    dom = device_domain("w7x")
+    for inset in (None, 0.1):
+        w = divertor_wall("w7x", inset)
+        want = DIVERTOR_INSET["w7x"] if inset is None else inset
+        d = np.asarray(dom.signed_distance(w.R.ravel(), np.repeat(w.phis, w.n_vertices), w.Z.ravel()))
+        # measured to the domain's chords, interpolated between its planes: within 1.5 mm of the inset
+        assert np.all(d < 0) and np.abs(d + want).max() < 1.5e-3, (want, d.min(), d.max())
+        assert w.nfp == dom.nfp and np.array_equal(w.phis, dom.phis)
+    with pytest.raises(ValueError, match="inset must be > 0"):
+        divertor_wall("w7x", -0.1)
+    with pytest.raises(ValueError, match="no default divertor inset"):
+        divertor_wall("hsx")
+    with pytest.raises(ValueError, match="intersects itself"):
+        divertor_wall("w7x", 0.3)  # past the smallest radius of curvature (0.27 m): a plane folds
+
+
+def test_connection_length_figure_log_colour_bar_units_lower_bounds_and_wall(drift, tmp_path):
+    """The map: a logarithmic colour bar over the reached lines' L_c, labelled with its unit; the
+    lines without a wall hit listed apart with their smallest lower bound; the wall in the legend;
+    the title inside the figure; with and without the grid."""
+    from matplotlib.colors import LogNorm
+
+    from vpforms import plots
+
+    from .test_fieldline_figures import LONG_TITLE, _inside, _legend_texts
+
+    m, _, wall = drift
+    g = start_grid(wall, 60, depth=0.15)
+    res = connection_length(m, g.x0, 0.05, 8, wall, progress=False)
+    assert 0 < res.reached.sum() < res.reached.size and res.unreached.any()
+    for grid in (g, None):
+        fig = plots.connection_length_figure(res, grid, wall, title=LONG_TITLE, path=str(tmp_path / "lc.png"))
+        fig.canvas.draw()
+        cbar = fig.axes[-1]
+        assert cbar.get_ylabel() == "connection length L_c = L_fwd + L_bwd (m)"
+        norm = fig.axes[0].collections[0].norm
+        assert isinstance(norm, LogNorm)
+        assert norm.vmin == pytest.approx(np.nanmin(res.L)) and norm.vmax == pytest.approx(np.nanmax(res.L))
+        texts = _legend_texts(fig)
+        n = res.reached.size
+        assert f"reached the wall ({int(res.reached.sum())} of {n} lines): L_c in colour" in texts, texts
+        lb = f"L_c > {np.min(res.traced[res.unreached]):.3g} m, a lower bound"
+        assert any(t.endswith(lb) for t in texts) and "wall" in texts, texts
+        assert _inside(fig, fig._suptitle)
+    assert (tmp_path / "lc.png").stat().st_size > 10_000

@@ -44,16 +44,18 @@ def test_cli_study_says_each_phase_times_every_one_and_writes_phi_mod_the_period
     out = {k: tmp_path / n for k, n in (("png", "s.png"), ("iota", "i.png"), ("csv", "s.csv"))}
     for p in out.values():
         p.write_bytes(b"an older run")
+    lc_png, lc_csv = tmp_path / "lc.png", tmp_path / "lc.csv"
     assert main(["fieldlines", "--lines", "2", "--transits", "3", "--islands", "2", "--island-range", "1.2,1.36",
                  "--island-scan", "3", "--wall", "default", "--png", str(out["png"]), "--iota-png", str(out["iota"]),
-                 "--csv", str(out["csv"])]) == 0
+                 "--csv", str(out["csv"]), "--connection-length", "40", "--lc-depth", "0.1", "--lc-transits", "2",
+                 "--lc-png", str(lc_png), "--lc-csv", str(lc_csv)]) == 0
     cap = capsys.readouterr()
     stdout = cap.out
     assert stdout.count("(replaced an existing file)") == 3
     phases = ["building the method (SE+SE, order 2)", "searching for the magnetic axis",
               "tracing the section (2 lines, 3 transits)", "computing ι of the lines",
               "searching for m = 2 island chains (3 scan points)", "tracing the lines to the wall (2 lines)",
-              "writing the CSV and the figures"]
+              "connection lengths (", "writing the CSV and the figures"]
     err = cap.err.splitlines()
     assert err and all(line.startswith("[vpforms] ") for line in err), err
     for name in phases:  # one line when it starts, one with its time when it ends
@@ -73,3 +75,17 @@ def test_cli_study_says_each_phase_times_every_one_and_writes_phi_mod_the_period
     data = np.loadtxt(out["csv"], delimiter=",", skiprows=1)
     assert data.shape[0] > 0 and np.all((data[:, 2] >= 0) & (data[:, 2] < 1e-9 * 2 * math.pi))
     assert all(out[k].stat().st_size > 20_000 for k in ("png", "iota"))
+    # the connection-length map: every line of the CSV inside the default wall, within 0.1 of it; the
+    # lengths both ways add up where the wall was reached; the summary row counts them
+    from vpforms import problems
+
+    wall = problems.get("tokamak").wall
+    rows = np.genfromtxt(lc_csv, delimiter=",", names=True)
+    d = np.asarray(wall.signed_distance(rows["R0"], rows["Z0"]))
+    assert rows.size > 20 and np.all((d < 0) & (d >= -0.1))
+    both = (rows["status_fwd"] == 0) & (rows["status_bwd"] == 0)
+    np.testing.assert_allclose(rows["L"][both], rows["L_fwd"][both] + rows["L_bwd"][both], rtol=1e-15)
+    assert np.isnan(rows["L"][~both]).all()
+    row = next(ln for ln in stdout.splitlines() if "connection lengths" in ln)
+    assert f"{rows.size} lines × 2 ways" in row and f"{int(both.sum())} reached the wall" in row, row
+    assert lc_png.stat().st_size > 20_000 and "connection-length map: " in stdout

@@ -9,6 +9,8 @@
 * :func:`fieldline_figure` — a toroidal section in (R, Z) with units, the magnetic axis, island
   O- and X-points, the wall, a legend and a colour bar (issue #41 item 6).
 * :func:`iota_figure` — the ι and q = 1/ι profiles against the starting radius, with the axis's ι.
+* :func:`connection_length_figure` — a connection-length map: L_c of lines started on a section,
+  on a log colour scale, the lines that did not reach the wall apart, the wall (issue #38 item 4).
 
 Titles are wrapped to the figure's width, so that none runs off its edge.
 Each returns the :class:`matplotlib.figure.Figure` and writes a PNG when ``path`` is given.
@@ -23,7 +25,8 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["poincare_figure", "order_figure", "drift_figure", "fieldline_figure", "iota_figure", "save"]
+__all__ = ["poincare_figure", "order_figure", "drift_figure", "fieldline_figure", "iota_figure",
+           "connection_length_figure", "save"]
 
 _SUB = str.maketrans("0123456789", "₀₁₂₃₄₅₆₇₈₉")
 
@@ -342,5 +345,87 @@ def iota_figure(iota: Any, title: str | None = None, path: str | None = None, *,
                 fontsize=9, color="0.3")
     fig.legend(handles=handles, loc="outside lower center", ncol=1, fontsize=9, frameon=False)
     fig.suptitle(_wrapped(fig, title or "rotational transform ι and safety factor q", 11), fontsize=11)
+    save(fig, path)
+    return fig
+
+
+def connection_length_figure(lengths: Any, grid: Any = None, wall: Any = None, section: Any = None,
+                             title: str | None = None, path: str | None = None, *, units: str = "m"):
+    """A connection-length map on a section: each starting point coloured by its L_c = L_fwd + L_bwd
+    (:class:`~vpforms.fieldlines.ConnectionLengths`) on a logarithmic colour scale with a colour bar;
+    the lines that did not reach the wall within the steps given (their length is only a lower bound)
+    in light grey, the failed ones (or those stopped by the field's own domain) in red; the wall, and
+    optionally a Poincaré ``section`` (:class:`~vpforms.fieldlines.ToroidalSection`) as small black
+    dots for the islands and surfaces.
+
+    ``grid`` (a :class:`~vpforms.fieldlines.StartGrid` of the starting points): drawn as cells of the
+    grid; without it, as dots. ``units``: of R, Z and L_c ("m"; "" when unknown)."""
+    import matplotlib
+    from matplotlib.cm import ScalarMappable
+    from matplotlib.colors import ListedColormap, LogNorm
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    L = np.asarray(lengths.L, float)
+    reached = np.asarray(lengths.reached, bool)
+    open_ = np.asarray(lengths.unreached, bool)
+    bad = ~reached & ~open_
+    if wall is not None:
+        r0, r1, z0, z1 = wall.bounds
+    else:
+        R0 = np.sqrt(2 * lengths.x0[:, 0]) if lengths.toroidal else np.hypot(lengths.x0[:, 0], lengths.x0[:, 1])
+        r0, r1, z0, z1 = R0.min(), R0.max(), lengths.x0[:, 2].min(), lengths.x0[:, 2].max()
+    aspect = float(np.clip((r1 - r0) / max(z1 - z0, 1e-300), 0.3, 3.0))
+    fig = _figure(float(np.clip(5.2 * aspect + 2.6, 6.0, 11.0)), 7.8)  # the section's width at equal scales
+    ax = fig.add_subplot(1, 1, 1)
+    cmap = matplotlib.colormaps["viridis"]
+    ok = L[reached]
+    lo, hi = (float(ok.min()), float(ok.max())) if ok.size else (1.0, 10.0)
+    if hi <= lo:
+        lo, hi = lo / 2, hi * 2
+    norm = LogNorm(lo, hi)
+    grey, red = ListedColormap(["0.82"]), ListedColormap(["C3"])
+    if grid is not None:
+        def cells(values, **kw):
+            ax.pcolormesh(grid.R, grid.Z, np.ma.masked_invalid(grid.image(values)), shading="nearest",
+                          rasterized=True, **kw)
+
+        cells(np.where(reached, L, np.nan), cmap=cmap, norm=norm)
+        cells(np.where(open_, 1.0, np.nan), cmap=grey, vmin=0, vmax=2)
+        cells(np.where(bad, 1.0, np.nan), cmap=red, vmin=0, vmax=2)
+    else:
+        R0 = np.sqrt(2 * lengths.x0[:, 0]) if lengths.toroidal else np.hypot(lengths.x0[:, 0], lengths.x0[:, 1])
+        Z0 = lengths.x0[:, 2]
+        size = float(np.clip(3e4 / max(L.size, 1), 1.0, 30.0))
+        ax.scatter(R0[reached], Z0[reached], c=L[reached], cmap=cmap, norm=norm, s=size, linewidths=0)
+        ax.scatter(R0[open_], Z0[open_], color="0.82", s=size, linewidths=0)
+        ax.scatter(R0[bad], Z0[bad], color="C3", s=size, linewidths=0)
+    n = L.size
+    unit = f" {units}" if units else ""
+    handles = [Patch(color=cmap(0.6), label=f"reached the wall ({int(reached.sum())} of {n} lines): L_c in colour")]
+    if open_.any():
+        lb = float(np.min(np.asarray(lengths.traced)[open_]))
+        handles.append(Patch(color="0.82", label=f"not reached within the steps ({int(open_.sum())}): "
+                                                 f"L_c > {lb:.3g}{unit}, a lower bound"))
+    if bad.any():
+        handles.append(Patch(color="C3", label=f"failed or left the field's domain ({int(bad.sum())})"))
+    if section is not None and len(section):
+        ax.scatter(section.R, section.Z, s=0.4, color="k", linewidths=0, alpha=0.8, rasterized=True)
+        handles.append(Line2D([], [], ls="none", marker=".", ms=3, color="k",
+                              label=f"Poincaré section ({len(section)} crossings)"))
+    if wall is not None:
+        (w,) = ax.plot(wall.R, wall.Z, "k-", lw=1.4, label="wall")
+        handles.append(w)
+    ax.set_xlabel(_unit("R", units), fontsize=11)
+    ax.set_ylabel(_unit("Z", units), fontsize=11)
+    ax.tick_params(labelsize=10)
+    ax.set_aspect("equal", adjustable="box")
+    ax.grid(True, lw=0.3, alpha=0.4)
+    cb = fig.colorbar(ScalarMappable(norm=norm, cmap=cmap), ax=ax, shrink=0.85, pad=0.02)
+    cb.set_label(_unit("connection length L_c = L_fwd + L_bwd", units), fontsize=10)
+    cb.ax.tick_params(labelsize=9)
+    fig.legend(handles=handles, loc="outside lower center", ncol=1, fontsize=9, frameon=False)
+    if title:
+        fig.suptitle(_wrapped(fig, title, 11), fontsize=11)
     save(fig, path)
     return fig

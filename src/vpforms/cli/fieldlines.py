@@ -2,13 +2,16 @@
 
 A Poincaré section at φ = const in (R, Z), the magnetic axis (fixed point of the return map, its
 ι from the tangent map), the ι/q profile of the traced lines (weighted Birkhoff averages), optional
-island chains (fixed points of Pᵐ) and a wall polygon; two PNGs and a CSV of the section points.
+island chains (fixed points of Pᵐ) and a wall polygon; two PNGs and a CSV of the section points;
+with ``--connection-length N``, a connection-length map: N lines on an (R, Z) grid of the section
+traced both ways to the wall, L_c coloured on the section (a PNG and a CSV).
 The field is a library problem (``--problem``: tokamak — in (u, φ, Z) —, coil_tokamak,
 coil_stellarator), a MAKEGRID coils file (``--coils``) or an mgrid netCDF file (``--mgrid``).
 """
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from types import SimpleNamespace
@@ -20,11 +23,14 @@ from .._phases import LIBRARY_DELAY, Phases
 from ..coils import device_axis, device_names, read_makegrid
 from ..fieldlines import (
     Wall,
+    connection_length,
     cylindrical,
+    is_toroidal,
     island_chain,
     magnetic_axis,
     return_map,
     rotational_transform,
+    start_grid,
     toroidal_section,
     trace_to_wall,
 )
@@ -49,8 +55,10 @@ from ._common import (
 
 
 def _wall_arg(text: str):
-    """``--wall``: "default" (the problem's own wall) or the polygon's numbers."""
-    return "default" if text.strip().lower() == "default" else _finite_list(text)
+    """``--wall``: "default" (the problem's own wall), "divertor" (a device's divertor-like model
+    wall) or the polygon's numbers."""
+    key = text.strip().lower()
+    return key if key in ("default", "divertor") else _finite_list(text)
 
 
 def _read_input(read, path: str, option: str):
@@ -160,6 +168,37 @@ def _device_source(args, guess):
     return field, field_nfp(field), guess or (R0, Z0), (0.1 * edge, 0.9 * edge), name, field.domain
 
 
+#: the options that decide the field and the method of ``vpforms fieldlines``
+_METHOD_OPTIONS = ("problem", "param", "coils", "mgrid", "device", "R", "Z", "grid", "axis_guess", "phi", "method",
+                   "case", "order", "fast", "theta", "no_recover", "composition", "engine")
+
+
+def build_method(options: dict):
+    """The method of ``vpforms fieldlines`` with these ``options`` (:data:`_METHOD_OPTIONS`): the
+    field by :func:`_field_source`, the method by ``_method_from_args`` — the command's own code path,
+    for a Dask worker or a study to rebuild exactly what the command traces."""
+    ns = SimpleNamespace(**{k: options.get(k) for k in _METHOD_OPTIONS})
+    return _method_from_args(ns, _field_source(ns)[0])
+
+
+def method_builder(args) -> functools.partial:
+    """A picklable zero-argument builder of the command's method (:func:`build_method` of ``args``'
+    field and method options): what :func:`vpforms.fieldlines.connection_length` ships to Dask workers."""
+    return functools.partial(build_method, {k: getattr(args, k, None) for k in _METHOD_OPTIONS})
+
+
+def _divertor_wall(args):
+    """--wall divertor: the device's divertor-like model wall (:func:`vpforms.problems.devices.divertor_wall`)."""
+    from ..problems import devices
+
+    if not args.device:
+        raise CLIError("--wall divertor is a device's model wall: give --device (w7x)")
+    key = args.device.strip().lower().replace("-", "").replace("_", "")
+    if key not in devices.DIVERTOR_INSET:
+        raise CLIError(f"--wall divertor: no divertor-like wall for {key} (known: {', '.join(devices.DIVERTOR_INSET)})")
+    return devices.divertor_wall(key)
+
+
 def field_nfp(field) -> int:
     """The number of field periods of a toroidal field (2π / its φ period)."""
     return int(round(2 * math.pi / (field.periods[1] or 2 * math.pi)))
@@ -179,7 +218,12 @@ def _study(args, console) -> int:
     it took (``--quiet`` or ``VPFORMS_QUIET=1``: silent), and the summary's timing table lists every
     phase — nested ones, such as a spline grid's sampling or a native kernel's compilation, under
     theirs — with the time outside them and the total."""
-    existing = _check_out(args, ("png", FIGURE_SUFFIXES), ("iota_png", FIGURE_SUFFIXES), ("csv", CSV_SUFFIXES))
+    outs = [("png", FIGURE_SUFFIXES), ("iota_png", FIGURE_SUFFIXES), ("csv", CSV_SUFFIXES)]
+    if args.connection_length:
+        outs += [("lc_png", FIGURE_SUFFIXES), ("lc_csv", CSV_SUFFIXES)]
+    existing = _check_out(args, *outs)
+    refuse_unless(args, ("lc_depth", "lc_transits", "lc_png", "lc_csv", "lc_workers"), bool(args.connection_length),
+                  "without --connection-length N")
     refuse_unless(args, ("R", "Z"), bool(args.coils), "without --coils (the spline grid of a coils file)")
     refuse_unless(args, ("grid",), bool(args.coils or args.device), "without --coils or --device (a spline grid)")
     refuse_unless(args, ("problem", "param"), not (args.coils or args.mgrid or args.device),
@@ -194,7 +238,9 @@ def _study(args, console) -> int:
                        delay=LIBRARY_DELAY):
             field, nfp, guess, span, name, default_wall = _field_source(args)
         wall = None
-        if args.wall == "default":
+        if args.wall == "divertor":
+            wall = _divertor_wall(args)
+        elif args.wall == "default":
             if default_wall is None:
                 raise CLIError(f"--wall default: {name} has no default wall; give the polygon R1,Z1,R2,Z2,…")
             wall = default_wall
@@ -205,6 +251,8 @@ def _study(args, console) -> int:
             wall = Wall(v[0::2], v[1::2])
         elif args.device:
             wall = default_wall  # the device's domain: its grid exists only there
+        if args.connection_length and wall is None:
+            raise CLIError("--connection-length needs a wall: --wall default, divertor or R1,Z1,…")
         # a guess outside the field's box is a usage error before anything is built
         _check_section_points(SimpleNamespace(field=field), args.phi, [guess], "the axis guess")
         analytic = args.problem.lower().replace("-", "_") == "tokamak" and not (
@@ -244,6 +292,9 @@ def _study(args, console) -> int:
             with log.phase(f"tracing the lines to the wall ({len(x0)} lines)"):
                 hits = trace_to_wall(method, x0, args.h, steps, wall, progress="auto")
             sec = sec.before(hits.t_exit)  # a line ends where it meets the wall
+        lc = None
+        if args.connection_length:
+            lc, lc_grid, lc_steps = _connection_map(args, log, method, P, wall, nfp)
         with log.phase("writing the CSV and the figures"):
             sec.to_csv(args.csv)
             what = f"{sec.section.method}, h = {args.h:g}, {args.transits:g} transits"
@@ -253,6 +304,13 @@ def _study(args, console) -> int:
                                    color_by=Rs, color_label=R_label)
             plots.iota_figure(iota, title=f"{name}: rotational transform and safety factor; {what}",
                               path=args.iota_png, units=units, axis=axis if axis.converged else None)
+            if lc is not None:
+                lc.to_csv(args.lc_csv)
+                plots.connection_length_figure(
+                    lc, lc_grid, wall.wall_at(args.phi) if hasattr(wall, "wall_at") else wall, section=sec,
+                    title=f"{name}: connection length to the wall, {len(lc.L)} lines from {plots._angle_text(args.phi, nfp)} "
+                          f"traced both ways ({sec.section.method}, h = {args.h:g}, ≤ {lc_steps} steps "
+                          f"≈ {args.lc_transits:g} transits each way)", path=args.lc_png, units=units)
     rows = {
         "field": name,
         "method": sec.section.method,
@@ -271,11 +329,40 @@ def _study(args, console) -> int:
     if hits is not None:
         rows["lines that hit the wall"] = f"{int(hits.hit.sum())} of {len(x0)}" + (
             f", median connection length {np.median(hits.connection_length[hits.hit]):.4g}" if hits.hit.any() else "")
+    if lc is not None:
+        r = lc.reached
+        rows["connection lengths"] = (
+            f"{len(lc.L)} lines × 2 ways, ≤ {lc_steps} steps each ({lc.where}): {int(r.sum())} reached the wall"
+            + (f", L_c median {np.median(lc.L[r]):.4g}, {lc.L[r].min():.3g} … {lc.L[r].max():.3g}" if r.any() else "")
+            + (f"; {int(lc.unreached.sum())} not within the steps (L_c > {lc.traced[lc.unreached].min():.3g})"
+               if lc.unreached.any() else "")
+            + (f"; {int((~r & ~lc.unreached).sum())} failed" if (~r & ~lc.unreached).any() else ""))
     console.print(_summary_table("vpforms fieldlines", rows))
     console.print(log.table())
     console.print(f"section: {_written(args.png, existing)}\nι profile: {_written(args.iota_png, existing)}\n"
                   f"section points CSV: {_written(args.csv, existing)}", soft_wrap=True)
+    if lc is not None:
+        console.print(f"connection-length map: {_written(args.lc_png, existing)}\n"
+                      f"connection lengths CSV: {_written(args.lc_csv, existing)}", soft_wrap=True)
     return 0
+
+
+def _connection_map(args, log, method, P, wall, nfp):
+    """--connection-length N: N lines on an (R, Z) grid of φ₀ inside the wall (within --lc-depth of
+    it), traced both ways for at most --lc-transits transits (steps from B^φ at the first line), in
+    this process or on --lc-workers Dask workers (each rebuilds the method: :func:`method_builder`).
+    Returns (the ConnectionLengths, the grid, the steps per direction)."""
+    try:
+        grid = start_grid(wall, args.connection_length, phi0=args.phi, depth=args.lc_depth,
+                          toroidal=is_toroidal(method.field))
+    except ValueError as exc:  # no point in the band
+        raise CLIError(f"--connection-length: {exc}") from None
+    steps = max(2, int(math.ceil(args.lc_transits * nfp * _steps_per_period(P, grid.x0[0]))))
+    where = f"{args.lc_workers} Dask workers" if args.lc_workers else "this process"
+    with log.phase(f"connection lengths ({len(grid.x0)} lines both ways, ≤ {args.lc_transits:g} transits, {where})"):
+        lc = connection_length(method, grid.x0, args.h, steps, wall, client=args.lc_workers or None,
+                               builder=method_builder(args) if args.lc_workers else None, progress="auto")
+    return lc, grid, steps
 
 
 def register(sub) -> None:
@@ -310,7 +397,27 @@ def register(sub) -> None:
     p.add_argument("--island-range", type=_finite_list, default=None, help="RMIN,RMAX of the island scan")
     p.add_argument("--island-scan", type=_positive_int, default=33, help="scan points (default 33)")
     p.add_argument("--wall", type=_wall_arg, default=None,
-                   help="closed (R, Z) polygon R1,Z1,…,R1,Z1, or 'default': the problem's own wall")
+                   help="closed (R, Z) polygon R1,Z1,…,R1,Z1, 'default': the problem's own wall, or 'divertor': "
+                        "a device's divertor-like model wall (W7-X: its domain 0.24 m inward, through the 5/5 "
+                        "islands)")
+    p.add_argument("--connection-length", type=_positive_int, default=None, metavar="N",
+                   help="a connection-length map: about N lines on a square (R, Z) grid of the section inside the "
+                        "wall (within --lc-depth of it) traced both ways to the wall; L_c = L_fwd + L_bwd on a log "
+                        "colour scale (--lc-png), every line's lengths and exits (--lc-csv)")
+    p.add_argument("--lc-depth", type=_positive_float, default=None, metavar="D",
+                   help="start the --connection-length lines only within D of the wall (the edge; default: all of "
+                        "its inside)")
+    p.add_argument("--lc-transits", type=_positive_float, default=20.0, metavar="T",
+                   help="at most ≈ T toroidal transits each way (default 20): a line that does not reach the wall "
+                        "by then has only a lower bound on L_c, shown apart")
+    p.add_argument("--lc-workers", type=_positive_int, default=None, metavar="K",
+                   help="trace the --connection-length lines on K local Dask worker processes (each rebuilds the "
+                        "field and the method)")
+    p.add_argument("--lc-png", default="vpforms-connection-length.png",
+                   help="connection-length map: .png, .pdf or .svg (default vpforms-connection-length.png)")
+    p.add_argument("--lc-csv", default="vpforms-connection-length.csv",
+                   help="connection lengths, one row per line (ConnectionLengths.to_csv): .csv "
+                        "(default vpforms-connection-length.csv)")
     p.add_argument("--png", default="vpforms-fieldlines.png",
                    help="section figure: .png, .pdf or .svg (default vpforms-fieldlines.png; an existing file "
                         "is replaced, and the summary says so)")
