@@ -225,3 +225,15 @@ def test_bench_peers_curves_smoke(tmp_path):
     assert 0 < float(rows[0].split("|")[3]) < 0.2  # 4 steps per period on an 8×16×8 K grid: ~6e-2 m
     assert [int(r.split("|")[3]) for r in rows[1:]] == [3, 6]
     assert (tmp_path / "stellarator_accuracy_time.png").stat().st_size > 0  # the plot, beside the results
+
+
+@pytest.mark.skipif(not _NATIVE_OK, reason=f"native backend unavailable: {_NATIVE_WHY}")
+def test_bench_compile_smoke(tmp_path):
+    """Two compilations of one small spline kernel (every entry, stages called) at -O3 and -O1: the
+    same lines, the same steps, the same end points to rounding."""
+    text = _smoke("bench_compile", tmp_path)
+    rows = [[c.strip() for c in r.split("|")[1:-1]] for r in text.splitlines()
+            if r.startswith("| ") and "---" not in r][1:]
+    assert [r[2] for r in rows] == ["**now: called, -O3 -march=native -g0 (FLAGS)**", "called, -O1 -march=native -g0"]
+    assert all(r[1] == "every entry" and float(r[5]) > 0 and float(r[7]) > 0 for r in rows)
+    assert float(rows[0][9]) == 0.0 and float(rows[1][9]) < 1e-9

@@ -58,7 +58,7 @@ def pairs(source: str) -> tuple[set[int], list[set[int]]]:
     """(the header offsets the guard reads at x, per Newton loop the offsets it reads) of a
     generated spline kernel."""
     step = source[source.index("int vp_step_exact("):]
-    guard = {int(o) for o in re.findall(r"vp_c0\(fd, fd \+ (\d+),", step[:step.index("vp_exact0(")])}
+    guard = {int(o) for o in re.findall(r"vp_c0\w*\(fd, fd \+ (\d+),", step[:step.index("vp_exact0(")])}
     loops = [{int(o) for o in re.findall(r"vp_seg\(fd, fd \+ (\d+),", body)}
              for body in re.findall(r"for \(int it = 0;.*?if \(n\d+_st == -1\)", source, re.S)]
     return guard, loops
