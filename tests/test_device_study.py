@@ -61,8 +61,11 @@ def test_w7x_study_from_the_command_line(tmp_path, capsys):
     from vpforms.coils import device_axis, device_domain
 
     png, ipng, out = tmp_path / "s.png", tmp_path / "i.png", tmp_path / "s.csv"
+    lpng, lcsv = tmp_path / "lc.png", tmp_path / "lc.csv"
     assert main(["fieldlines", "--device", "w7x", "--grid", "32x48x32", "--lines", "3", "--transits", "5",
-                 "--png", str(png), "--iota-png", str(ipng), "--csv", str(out), "--quiet"]) == 0
+                 "--png", str(png), "--iota-png", str(ipng), "--csv", str(out), "--quiet",
+                 "--wall", "divertor", "--connection-length", "40", "--lc-depth", "0.08", "--lc-transits", "2",
+                 "--lc-png", str(lpng), "--lc-csv", str(lcsv)]) == 0
     text = capsys.readouterr().out
     assert png.stat().st_size > 0 and ipng.stat().st_size > 0
     rows = list(csv.DictReader(out.open()))
@@ -78,3 +81,20 @@ def test_w7x_study_from_the_command_line(tmp_path, capsys):
     assert 0.85 < abs(iota) < 0.87, iota
     failed = next(ln for ln in text.splitlines() if "failed lines" in ln).split("│")[2].strip()
     assert failed == "0", failed
+    # the connection-length map to the divertor-like wall: starts within 0.08 m inside it, exits on it
+    # (in-plane distance ≤ 1e-9 m at the exit's own φ), L = L_fwd + L_bwd where both ways reached it
+    from vpforms.problems.devices import divertor_wall
+
+    wall = divertor_wall("w7x")
+    lc = np.genfromtxt(lcsv, delimiter=",", names=True)
+    d0 = np.asarray(wall.signed_distance(lc["R0"], lc["phi0"], lc["Z0"]))
+    assert lc.size > 30 and np.all((d0 < 0) & (d0 >= -0.08))
+    for way in ("fwd", "bwd"):
+        hit = lc[f"status_{way}"] == 0
+        assert hit.any()
+        d = np.asarray(wall.signed_distance(lc[f"exit_R_{way}"][hit], lc[f"exit_phi_{way}"][hit],
+                                            lc[f"exit_Z_{way}"][hit]))
+        assert np.abs(d).max() < 1e-9, np.abs(d).max()
+    both = (lc["status_fwd"] == 0) & (lc["status_bwd"] == 0)
+    np.testing.assert_allclose(lc["L"][both], lc["L_fwd"][both] + lc["L_bwd"][both], rtol=1e-15)
+    assert lpng.stat().st_size > 20_000
