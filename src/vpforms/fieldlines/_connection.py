@@ -139,6 +139,11 @@ class ConnectionLengths:
         return self.status == WALL
 
     @property
+    def unreached(self) -> np.ndarray:
+        """bool (N,): status OPEN — no failure, but the wall not reached within n_steps (some way)."""
+        return self.status == OPEN
+
+    @property
     def L(self) -> np.ndarray:
         """L_c = L_fwd + L_bwd (L_fwd for a one-way run); NaN where a direction did not reach the wall."""
         return np.where(self.reached, self.length_fwd + self.length_bwd, np.nan)
