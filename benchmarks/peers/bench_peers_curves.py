@@ -73,6 +73,18 @@ def trace(pf, m, x_R, n, transits, warm=False):
     return np.sqrt(2 * x[..., 0]).T, x[..., 2].T, sol.n_failed
 
 
+def timed_trace(pf, m, x_R, n, n_tr):
+    """(R, Z, failed, wall, fixed): the lines traced for n_tr transits, timed apart from the fixed
+    cost (a 2-line, 1-transit call: the kernel's compilation or its load) and from U's compilation."""
+    t = time.perf_counter()
+    trace(pf, m, x_R[:2], n, 1)
+    fixed = time.perf_counter() - t
+    trace(pf, m, x_R, n, n_tr, warm=True)
+    t = time.perf_counter()
+    R, Z, failed = trace(pf, m, x_R, n, n_tr)
+    return R, Z, failed, time.perf_counter() - t, fixed
+
+
 def run_vpforms(pf, x_R, ref, settings, n_tr):
     """One accuracy row per (order, n)."""
     from vpforms.phitime import phi_time_scheme
@@ -80,13 +92,7 @@ def run_vpforms(pf, x_R, ref, settings, n_tr):
     rows = []
     for order, n in settings:
         m = phi_time_scheme(pf, "SE+SE", order=order)
-        t = time.perf_counter()
-        trace(pf, m, x_R[:2], n, 1)  # the fixed cost: the kernel's compilation or its load
-        t_fixed = time.perf_counter() - t
-        trace(pf, m, x_R, n, n_tr, warm=True)
-        t = time.perf_counter()
-        R, Z, failed = trace(pf, m, x_R, n, n_tr)
-        wall = time.perf_counter() - t
+        R, Z, failed, wall, t_fixed = timed_trace(pf, m, x_R, n, n_tr)
         err, _ = _error(R, Z, *ref, n_tr * NFP)
         rows.append(dict(tool="vpforms", setting=f"φ-exact SE+SE ∘ order {order}, {n} steps per field period "
                          f"({n * NFP} per transit)", error=err, wall=wall, fixed=t_fixed, failed=failed,

@@ -33,7 +33,7 @@ sys.path[:0] = [HERE, os.path.dirname(HERE)]
 from _bench import machine, parser, write_results  # noqa: E402
 from _peer_common import dop853_section  # noqa: E402
 from bench_peers import R_AXIS, RK_TOL  # noqa: E402
-from bench_peers_curves import run_peers, trace  # noqa: E402
+from bench_peers_curves import run_peers, timed_trace  # noqa: E402
 from bench_peers_issue_size import BOX_R, BOX_Z, NFP, _error  # noqa: E402
 
 
@@ -100,13 +100,7 @@ def run_vpforms(pf, x_R, ref, n_tr, settings, step_tol, smoke):
             sc = steps_for_tol(m, y_sample, 2 * np.pi / NFP, step_tol, n0=8, periods=2 if smoke else 4,
                                to_points=points, backend="native")
             n, note = sc.n, f" (steps_for_tol: {sc}; {time.perf_counter() - t:.1f} s)"
-        t = time.perf_counter()
-        trace(pf, m, x_R[:2], n, 1)  # the fixed cost: compile or load the kernel
-        fixed = time.perf_counter() - t
-        trace(pf, m, x_R, n, n_tr, warm=True)
-        t = time.perf_counter()
-        R, Z, failed = trace(pf, m, x_R, n, n_tr)
-        wall = time.perf_counter() - t
+        R, Z, failed, wall, fixed = timed_trace(pf, m, x_R, n, n_tr)
         err, _ = _error(R, Z, *ref, n_tr * NFP)
         d = np.hypot(np.asarray(R) - ref[0][:R.shape[0]], np.asarray(Z) - ref[1][:R.shape[0]]).max(axis=0)
         rows.append(dict(tool="vpforms", setting=f"φ-exact SE+SE ∘ order {order}, {n} steps per field period"
