@@ -18,6 +18,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from .._integrate import integrate
 from .._phases import phase
 
 __all__ = ["StepChoice", "steps_for_tol"]
@@ -96,8 +97,6 @@ def steps_for_tol(method: Any, x0: Any, period: float, tol: float, *, n0: int = 
     -------
     StepChoice
     """
-    from .._integrate import integrate
-
     if isinstance(tol, bool) or not isinstance(tol, (int, float, np.integer, np.floating)) \
             or not (math.isfinite(tol) and tol > 0):
         raise ValueError(f"tol must be a positive length per period; got {tol!r}")

@@ -33,6 +33,7 @@ import time
 from dataclasses import dataclass, field
 from typing import Any, Callable, Sequence
 
+import jax
 import numpy as np
 
 from .._phases import phase
@@ -116,8 +117,6 @@ def spline_nbytes(pot: Any) -> int:
     """Bytes of the arrays of a :class:`~vpforms.grids.SplinePotential`'s three splines (knots,
     cell polynomials, coefficients; its antiderivatives, built when a method needs them, add about
     as much again per pair)."""
-    import jax
-
     return int(sum(np.asarray(leaf).nbytes for s in pot.splines for leaf in jax.tree_util.tree_leaves(s)))
 
 
