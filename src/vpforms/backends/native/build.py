@@ -48,8 +48,9 @@ FLAGS = ("-O3", "-march=native", "-ffast-math", "-fno-finite-math-only",
          "-fdisable-tree-sincos", "-fdisable-tree-reassoc1", "-fdisable-tree-reassoc2", "-fopenmp", "-g0")
 #: How many compilations / cache hits this process did (tests read it).
 COUNTERS = {"compiled": 0, "cache_hits": 0}
-#: a compilation of at least this much C is announced on stderr (vpforms._phases; gcc takes ~1 s per
-#: 6 KB of generated C here): smaller ones take about a second and stay silent
+#: a compilation of at least this much C is announced on stderr (vpforms._phases): smaller ones take
+#: about a second and stay silent (an order-4 spline kernel, 67 KB with every entry, takes ~5 s of gcc:
+#: benchmarks/native/results_compile.md)
 ANNOUNCE_BYTES = 8192
 
 _loaded: dict[str, object] = {}
