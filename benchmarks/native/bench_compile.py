@@ -22,8 +22,9 @@ The field is the l = 2 stellarator's coils splined by
 :func:`vpforms.problems.coil_fields.spline_coil_field` (``problems.get("coil_stellarator")``,
 40×32×40). The C of a spline kernel depends only on the spline's structure (knots and
 coefficients are run-time data), so ``vpforms fieldlines --coils <its MAKEGRID file>`` on the docs'
-box compiles the same sources — checked by their hashes (not in smoke mode); so does the W7-X
-grid of ``--device w7x`` (session 38's 898 s kernel).
+box compiles the same sources — checked by their hashes (not in smoke mode). So does the W7-X
+grid of ``--device w7x`` (session 38's 898 s order-4 kernel): checked outside this script, whose
+run would double with that grid's build.
 
     PYTHONPATH=src python benchmarks/native/bench_compile.py [--smoke] [--orders 2,4] [--inline-orders 2,4]
 """
