@@ -86,6 +86,14 @@ def test_cli_study_says_each_phase_times_every_one_and_writes_phi_mod_the_period
     both = (rows["status_fwd"] == 0) & (rows["status_bwd"] == 0)
     np.testing.assert_allclose(rows["L"][both], rows["L_fwd"][both] + rows["L_bwd"][both], rtol=1e-15)
     assert np.isnan(rows["L"][~both]).all()
-    row = next(ln for ln in stdout.splitlines() if "connection lengths" in ln)
+    lines = stdout.splitlines()
+    i = next(k for k, ln in enumerate(lines) if "connection lengths" in ln)
+    cells = [lines[i].split("│")[2]]
+    for ln in lines[i + 1:]:  # the row's cell wrapped onto continuation lines (first cell blank)
+        parts = ln.split("│")
+        if len(parts) < 4 or parts[1].strip():
+            break
+        cells.append(parts[2])
+    row = " ".join(c.strip() for c in cells)
     assert f"{rows.size} lines × 2 ways" in row and f"{int(both.sum())} reached the wall" in row, row
     assert lc_png.stat().st_size > 20_000 and "connection-length map: " in stdout
