@@ -73,6 +73,23 @@ def trace(pf, m, x_R, n, transits, warm=False):
     return np.sqrt(2 * x[..., 0]).T, x[..., 2].T, sol.n_failed
 
 
+def reference(coils, x_R, n_tr, work):
+    """((R, Z) section points, seconds): scipy DOP853 (rtol 1e-12) on the coils' Biot–Savart B for
+    the lines from (x_R, 0) over n_tr transits, kept in ``work`` and read back when it is there."""
+    import jax
+
+    path = os.path.join(work, f"reference_{len(x_R)}x{n_tr}.npz")
+    if os.path.exists(path):
+        z = np.load(path)
+        return (z["R"], z["Z"]), float(z["t"])
+    B = jax.jit(coils.B)
+    t = time.perf_counter()
+    ref = dop853_section(lambda x: np.asarray(B(x)), x_R, np.zeros(len(x_R)), NFP, n_tr * NFP)
+    t_ref = time.perf_counter() - t
+    np.savez(path, R=ref[0], Z=ref[1], t=t_ref)
+    return ref, t_ref
+
+
 def timed_trace(pf, m, x_R, n, n_tr):
     """(R, Z, failed, wall, fixed): the lines traced for n_tr transits, timed apart from the fixed
     cost (a 2-line, 1-transit call: the kernel's compilation or its load) and from U's compilation."""
@@ -163,8 +180,6 @@ def main(argv=None) -> int:
     ap.add_argument("--png", default=PNG)
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
-    import jax
-
     from vpforms.coils import l2_stellarator, write_makegrid
 
     smoke = args.smoke
@@ -189,15 +204,7 @@ def main(argv=None) -> int:
                    "long_transits": {"desc": desc_long}, "rk_tol": RK_TOL, "rk_tols": rtols,
                    "check_points": np.c_[Rc * np.cos(ph), Rc * np.sin(ph), Zc].tolist(), "own_reference": False}, fh)
 
-    ref_path = os.path.join(work, f"reference_{n_lines}x{n_tr}.npz")
-    if os.path.exists(ref_path):
-        ref, t_ref = tuple(np.load(ref_path)[k] for k in ("R", "Z")), float(np.load(ref_path)["t"])
-    else:
-        B = jax.jit(coils.B)
-        t = time.perf_counter()
-        ref = dop853_section(lambda x: np.asarray(B(x)), x_R, np.zeros(n_lines), NFP, n_tr * NFP)
-        t_ref = time.perf_counter() - t
-        np.savez(ref_path, R=ref[0], Z=ref[1], t=t_ref)
+    ref, t_ref = reference(coils, x_R, n_tr, work)
     print(f"reference {t_ref:.0f} s", flush=True)
 
     tools = args.tools.split(",")

@@ -31,9 +31,8 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path[:0] = [HERE, os.path.dirname(HERE)]
 from _bench import machine, parser, write_results  # noqa: E402
-from _peer_common import dop853_section  # noqa: E402
 from bench_peers import R_AXIS, RK_TOL  # noqa: E402
-from bench_peers_curves import run_peers, timed_trace  # noqa: E402
+from bench_peers_curves import reference, run_peers, timed_trace  # noqa: E402
 from bench_peers_issue_size import BOX_R, BOX_Z, NFP, _error  # noqa: E402
 
 
@@ -124,8 +123,6 @@ def main(argv=None) -> int:
     ap.add_argument("--reanalyse", action="store_true", help="rewrite the results from <work>/tol_grids.json")
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
-    import jax
-
     from vpforms.coils import l2_stellarator, write_makegrid
 
     smoke = args.smoke
@@ -161,16 +158,7 @@ def main(argv=None) -> int:
 
     # 2. accuracy against wall time
     rows = []
-    ref_path = os.path.join(work, f"reference_{n_lines}x{n_tr}.npz")
-    if os.path.exists(ref_path):
-        z = np.load(ref_path)
-        ref, t_ref = (z["R"], z["Z"]), float(z["t"])
-    else:
-        B = jax.jit(coils.B)
-        t = time.perf_counter()
-        ref = dop853_section(lambda x: np.asarray(B(x)), x_R, np.zeros(n_lines), NFP, n_tr * NFP)
-        t_ref = time.perf_counter() - t
-        np.savez(ref_path, R=ref[0], Z=ref[1], t=t_ref)
+    ref, t_ref = reference(coils, x_R, n_tr, work)
     tools = args.tools.split(",")
     if "vpforms" in tools:
         rows += run_vpforms(pfs[min(tols)], x_R, ref, n_tr, settings, args.step_tol, smoke)
