@@ -238,6 +238,8 @@ def refine_to_tol(sample: Callable[[tuple[int, int, int]], Any],
         with phase(f"round {r + 1}: each axis's share of the error (three coarser fits)"):
             for a in range(3):
                 sub = _every_other(n[a], periodic[a])
+                if sub is None:  # _count keeps the parity that makes it exist; never guess a share
+                    raise AssertionError(f"{what}: {n[a]} nodes on axis {a} have no every-other-node sub-grid")
                 e_a = float(estimate(fit(data, tuple(sub if b == a else slice(None) for b in range(3)))))
                 share[a] = max(e_a - e, 0.0) / (2.0 ** p[a] - 1.0) if math.isfinite(e_a) else e
         rounds.append(GridRound(n, e, time.perf_counter() - t, mem, t_build))

@@ -119,8 +119,8 @@ def spline_coil_field(coils: CoilSet, R: tuple, Z: tuple, *, n_R: int | None = N
     less ``margin``) is ≤ tol, each grid within ``max_memory`` bytes of coefficients;
     ``field.grid_choice`` (:class:`vpforms.grids.GridChoice`) reports the grid, the estimate and
     every round. Degree 5 reaches a given tol with far fewer nodes than degree 3 on coil fields (l = 2
-    stellarator, B error 1e-7 on a 0.145 m tube about the axis: degree 5 on 36 × 60 × 46 nodes;
-    degree 3 at 96 × 64 × 96 stops at 1.3e-6). Without ``tol`` the grid is 40 × 32 × 40 unless given."""
+    stellarator, on a 0.145 m tube about the axis: degree 5 reaches 1e-7 on 47 × 52 × 37 nodes, 2.4 MiB;
+    degree 3 needs 97 × 64 × 75 nodes, 11 MiB, for 1e-6: ``benchmarks/peers/results_tol_grids.md``). Without ``tol`` the grid is 40 × 32 × 40 unless given."""
     nfp = coils.nfp
     if domain is not None:
         domain.check_within(R, Z, f"the grid of {name}")
