@@ -7,12 +7,14 @@ O- and X-points and the wall, a colour bar, readable ι labels. Fast: no field i
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from types import SimpleNamespace as NS
 
 import numpy as np
 import pytest
 
 from vpforms import plots
+from vpforms._errors import RESULTS
 from vpforms.fieldlines import Wall
 from vpforms.fieldlines._iota import Iota
 from vpforms.fieldlines._sections import ToroidalSection
@@ -152,3 +154,15 @@ def test_csv_writes_phi_modulo_the_period_with_the_period_itself_as_zero(tmp_pat
     np.testing.assert_allclose(data[:, 2], expected, rtol=0, atol=1e-14)
     assert np.all((data[:, 2] >= 0) & (data[:, 2] < P))
     np.testing.assert_array_equal(data[:, 4], sec.R)  # the other columns as they were
+
+
+def test_iota_figure_says_which_lines_left_the_domain_and_which_failed():
+    """A line stopped at the field's edge (``left_domain``) is not a failure: the note says both apart."""
+    it = _iota([0.55, np.nan, np.nan, np.nan], [1e-3, np.nan, np.nan, np.nan])
+    left = RESULTS.left_domain
+    it = replace(it, status=np.array([0, left, left, RESULTS.not_converged], np.int32))
+    notes = [t.get_text() for t in plots.iota_figure(it, axis=AXIS).axes[0].texts]
+    assert any("1 of 4 lines failed, 2 left the domain" in t for t in notes), notes
+    it = replace(it, status=np.array([0, left, left, left], np.int32))
+    notes = [t.get_text() for t in plots.iota_figure(it, axis=AXIS).axes[0].texts]
+    assert any("3 of 4 lines left the domain" in t for t in notes) and not any("failed" in t for t in notes), notes

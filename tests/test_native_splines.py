@@ -139,6 +139,26 @@ def test_a_line_leaving_the_grid_stops_with_left_domain_natively(cart):
     assert x[2] + 0.01 * float(np.asarray(cart(x))[2]) > 2.0
 
 
+@pytest.mark.parametrize("backend", ["native", "jax"])
+def test_a_line_leaving_the_grid_is_stopped_not_recovered(cart, backend):
+    """Issue #41: ``left_domain`` is a stop, never retried by recovery — every alternative steps the
+    same field, which does not exist off the grid (before, each such line went through all ten
+    alternatives and the sub-step ladder: 110–150 s of compilations on a coil grid). On both
+    backends the recovering method stops the line where the bare one does, and nothing is
+    recovered; natively the alternatives are not even built."""
+    bare = vp.scheme(cart, "SE+SE", recover=False)
+    m = vp.scheme(cart, "SE+SE")
+    sol_bare = vp.integrate(bare, CART_X0, 0.01, 100, backend=backend)
+    sol = vp.integrate(m, CART_X0, 0.01, 100, backend=backend)
+    assert list(sol.status) == [RESULTS.successful] * 3 + [RESULTS.left_domain]
+    np.testing.assert_array_equal(sol.status, sol_bare.status)
+    np.testing.assert_allclose(sol.xs, sol_bare.xs, rtol=0, atol=1e-12, equal_nan=True)
+    assert int(np.asarray(sol.recovered).sum()) == 0
+    if backend == "native":
+        assert m._built is None  # built on first use (_methods/recover.py): never needed here
+    assert len(m.alternatives) == 10 and m._built is not None
+
+
 def test_a_second_grid_of_the_same_shape_reuses_the_compiled_kernel(cart):
     """Other data (values, extent, hence origin and bounds) of the same structure: the same C
     source, no compilation, the same library — and the kernel steps the second field (one step

@@ -25,6 +25,8 @@ from typing import Any
 
 import numpy as np
 
+from ._errors import RESULTS
+
 __all__ = ["poincare_figure", "order_figure", "drift_figure", "fieldline_figure", "iota_figure",
            "connection_length_figure", "save"]
 
@@ -339,10 +341,12 @@ def iota_figure(iota: Any, title: str | None = None, path: str | None = None, *,
         a.set_ylabel(ylabel, fontsize=11)
         a.tick_params(labelsize=10)
         a.grid(True, lw=0.3, alpha=0.4)
-    failed = int(np.count_nonzero(~ok))
-    if failed:
-        a1.text(0.02, 0.02, f"{failed} of {vals.size} lines failed (no ι): not shown", transform=a1.transAxes,
-                fontsize=9, color="0.3")
+    if not ok.all():  # a line that left the domain (a grid's edge, a wall) did not fail: said apart
+        left = int(np.count_nonzero(~ok & (np.asarray(iota.status) == RESULTS.left_domain)))
+        failed = int(np.count_nonzero(~ok)) - left
+        said = (f"{failed} of {vals.size} lines failed" + (f", {left} left the domain" if left else "") if failed
+                else f"{left} of {vals.size} lines left the domain")
+        a1.text(0.02, 0.02, f"{said} (no ι): not shown", transform=a1.transAxes, fontsize=9, color="0.3")
     fig.legend(handles=handles, loc="outside lower center", ncol=1, fontsize=9, frameon=False)
     fig.suptitle(_wrapped(fig, title or "rotational transform ι and safety factor q", 11), fontsize=11)
     save(fig, path)

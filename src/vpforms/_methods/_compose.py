@@ -116,9 +116,8 @@ def compose(method: Method, order: int = 2, scheme: str | None = None) -> Method
         # of an alternative is taken — the same order — instead of one switched stage, which
         # would make the step an order-1 map (e.g. Ψ*_c∘Ψ_{c'} is not symmetric)
         bare = compose(method.bare, order, scheme)
-        alts = [(SubstepLadder(bare, a.k) if isinstance(a, SubstepLadder) else compose(a, order, scheme), c)
-                for a, c in method.alternatives]
-        return Recovering(bare, alts, method.buffer, method.refused)
+        return method._derived(bare, lambda a: SubstepLadder(bare, a.k) if isinstance(a, SubstepLadder)
+                               else compose(a, order, scheme))
     base = method if (method.symmetric and method.order >= 2) else symmetric_pair(method)
     if order == 2:
         if scheme is not None:

@@ -10,7 +10,10 @@ volume preserving):
 2. the representatives of the other classes (S1, S2, SE+SE, DL+DL, SE+DL order);
 3. 2, 4, …, 2^k sub-steps of size h/2^j of the bare method (k = ``recover_substeps``, default 6).
 
-Only then does the step report the bare failure (``integrate`` freezes the particle).  An
+Only then does the step report the bare failure (``integrate`` freezes the particle).  A step
+that left the domain (``RESULTS.left_domain``: a wall, a gridded field's box) is a stop, never
+retried: every alternative evaluates the same field, which does not exist out there (issue #41: a
+line started at a grid's edge went through every alternative, 110–150 s of compilations).  An
 alternative is accepted only if it passes the consistency guard (:mod:`vpforms._guard`) and, for
 1 and 2, agrees with the RK4 step to ``KAPPA_ALT``·|h a(x)|: it replaces a failed step, so it must be
 right.  Alternatives whose potentials are refused on the field's box (:meth:`Method.check_domain`)
@@ -36,6 +39,7 @@ back. A point's result depends only on that point: chunk-independent and determi
 
 from __future__ import annotations
 
+import threading
 from typing import Any
 
 import jax
@@ -53,6 +57,13 @@ __all__ = ["Recovering", "SubstepLadder"]
 
 #: points recovered per buffer pass
 _BUFFER = 32
+
+
+def _retried(status):
+    """Where a failed step is retried by the alternatives: every failure but ``left_domain`` — a
+    line that left the domain (a wall, a gridded field's box) stopped, and every alternative
+    evaluates the same field, which does not exist out there (numpy or JAX status)."""
+    return (status != RESULTS.successful) & (status != RESULTS.left_domain)
 
 
 class SubstepLadder(Method):
@@ -131,19 +142,48 @@ class SubstepLadder(Method):
 
 class Recovering(Method):
     """``bare`` with recovery: ``alternatives`` is a tuple of (method, RECOVERY code) tried in
-    order where the bare step fails (see the module docstring)."""
+    order where the bare step fails (see the module docstring).
+
+    ``alternatives`` may also be a zero-argument callable returning (alternatives, refused): they
+    are then built on first use — a run whose bare steps never fail (the native backend recovers
+    on the host, :mod:`vpforms.backends._advance`) never pays their construction and domain
+    checks (≈ 18 s for the ten alternatives of SE+SE on a coil spline field, issue #41)."""
 
     def __init__(self, bare: Method, alternatives, buffer: int = _BUFFER, refused=()):
         self.bare = bare
-        self.alternatives = tuple(alternatives)
-        #: (case or class, reason) of the alternatives that could not be built for this field
-        #: (e.g. potentials singular inside the box): never tried
-        self.refused = tuple(refused)
+        if callable(alternatives):
+            self._source, self._built = alternatives, None
+        else:
+            self._source, self._built = None, (tuple(alternatives), tuple(refused))
+        self._lock = threading.Lock()
         self.buffer = int(buffer)
         self.case, self.field = bare.case, bare.field
         self.order, self.symmetric = bare.order, bare.symmetric
         self.name = bare.name
         self.guess_is_solution = getattr(bare, "guess_is_solution", False)
+
+    def _alternatives_and_refused(self) -> tuple:
+        with self._lock:  # one build, also when Dask worker threads share the method
+            if self._built is None:
+                alts, refused = self._source()
+                self._built = (tuple(alts), tuple(refused))
+        return self._built
+
+    @property
+    def alternatives(self) -> tuple:
+        """(method, RECOVERY code) in the order they are tried (built on first use)."""
+        return self._alternatives_and_refused()[0]
+
+    @property
+    def refused(self) -> tuple:
+        """(case or class, reason) of the alternatives that could not be built for this field (e.g.
+        potentials singular inside the box): never tried (building them if not yet built)."""
+        return self._alternatives_and_refused()[1]
+
+    def _derived(self, bare: Method, each) -> "Recovering":
+        """A Recovering of ``bare`` whose alternatives are ``each(alternative)``, as lazy as this one's."""
+        return Recovering(bare, lambda: ([(each(a), c) for a, c in self.alternatives], self.refused),
+                          self.buffer)
 
     def __getattr__(self, item):  # traits of the bare method (theta, printed, …)
         if item == "bare" or item.startswith("_"):  # never the bare jit caches
@@ -157,17 +197,14 @@ class Recovering(Method):
         return (self.bare,)  # alternatives were checked on the box when built; only the bare step must run
 
     def adjoint(self) -> Method:
-        out = Recovering(self.bare.adjoint(), [(a.adjoint(), c) for a, c in self.alternatives],
-                         self.buffer, self.refused)
+        out = self._derived(self.bare.adjoint(), lambda a: a.adjoint())
         out.adjoint_of = self  # its spec is {"kind": "adjoint", "base": self.spec()}
         return out
 
     def relabel(self, pi) -> Method:
         """(π, π)·Ψ with recovery: the bare step and every alternative relabelled (prop:trivperm;
         a relabelled case of the class is a case of the class)."""
-        return memo_relabel(self, pi, lambda pi: Recovering(
-            self.bare.relabel(pi), [(a.relabel(pi), c) for a, c in self.alternatives],
-            self.buffer, self.refused))
+        return memo_relabel(self, pi, lambda pi: self._derived(self.bare.relabel(pi), lambda a: a.relabel(pi)))
 
     def generating_map(self, h, x=None):
         return self.bare.generating_map(h, x)
@@ -186,7 +223,7 @@ class Recovering(Method):
             st = checked_status(X, st)
         how = np.zeros(x.shape[0], np.int32)
         for alt, code in self.alternatives:
-            pend = np.flatnonzero(st != RESULTS.successful)
+            pend = np.flatnonzero(_retried(st))
             if pend.size == 0:
                 break
             Xa, sa = padded_steps(alt.step_with_status, x[pend], h)
@@ -225,7 +262,7 @@ class Recovering(Method):
                 return (jnp.where(ok, Xa, X), jnp.where(ok, sa, st), it + ia,
                         jnp.where(ok, jnp.int32(code), rec))
 
-            X, st, it, rec = lax.cond(st != RESULTS.successful, take, lambda c: c, (X, st, it, rec))
+            X, st, it, rec = lax.cond(_retried(st), take, lambda c: c, (X, st, it, rec))
         return X, st, it, rec
 
     def _forward(self, x, h):
@@ -281,31 +318,36 @@ class Recovering(Method):
                 todo = todo.at[idx].set(False, mode="drop")
                 return X, st, it, rec, todo
 
-            return lax.while_loop(cond, body, c + (c[1] != RESULTS.successful,))[:4]
+            return lax.while_loop(cond, body, c + (_retried(c[1]),))[:4]
 
-        return lax.cond(jnp.any(st != RESULTS.successful), recover, lambda c: c, (X, st, it, rec))
+        return lax.cond(jnp.any(_retried(st)), recover, lambda c: c, (X, st, it, rec))
 
 
 def recovering(field: Any, case, bare: Method, build, substeps: int = 6, classes: bool = True,
                refused=(), first=()):
-    """``Recovering(bare, …)`` with the alternatives of the module docstring; ``build(case_or_cls)``
-    makes a bare method (None where the recipe does not apply to the field, the reason then in
-    ``refused``)."""
-    alts = list(first)
-    for c in cases():
-        if c.cls == case.cls and c != case:
-            m = build(c)
-            if m is not None:
-                alts.append((m, RECOVERY.other_case))
-    if classes:
-        for k in CLASSES:
-            if k != case.cls:
-                m = build(k)
+    """``Recovering(bare, …)`` with the alternatives of the module docstring, built on first use;
+    ``build(case_or_cls)`` makes a bare method (None where the recipe does not apply to the field,
+    the reason then in ``refused``, which ``build`` appends to); ``first``: the alternatives tried
+    before the other cases (or a callable making them, also on first use)."""
+
+    def alternatives():
+        alts = list(first() if callable(first) else first)
+        for c in cases():
+            if c.cls == case.cls and c != case:
+                m = build(c)
                 if m is not None:
-                    alts.append((m, RECOVERY.other_class))
-    if int(substeps) > 0:
-        alts.append((SubstepLadder(bare, substeps), RECOVERY.substeps))
-    return Recovering(bare, alts, refused=refused)
+                    alts.append((m, RECOVERY.other_case))
+        if classes:
+            for k in CLASSES:
+                if k != case.cls:
+                    m = build(k)
+                    if m is not None:
+                        alts.append((m, RECOVERY.other_class))
+        if int(substeps) > 0:
+            alts.append((SubstepLadder(bare, substeps), RECOVERY.substeps))
+        return alts, refused
+
+    return Recovering(bare, alternatives)
 
 
 def recovering_scheme(scheme, field, case, options, substeps, classes):
@@ -324,17 +366,17 @@ def recovering_scheme(scheme, field, case, options, substeps, classes):
             refused.append((c, str(err)))
             return None
 
-    first = []
-    if bare.cls in ("SE+DL", "DL+DL") and options.get("fast") is False and not options.get("printed"):
+    def first():
+        if not (bare.cls in ("SE+DL", "DL+DL") and options.get("fast") is False and not options.get("printed")):
+            return []
         # the engine form fails (or loses digits) at the fold of a DL stage where the nested
         # θ-stages of the SAME map do not: that map first, so a recovered step changes nothing but
         # the evaluation (switching methods would cost the composition's order and invariants)
-        same = None
         try:
-            same = scheme(field, bare.case, recover=False, **{**options, "fast": True})
+            return [(scheme(field, bare.case, recover=False, **{**options, "fast": True}), RECOVERY.same_map)]
         except (VPFormsError, ValueError) as err:
             refused.append((bare.case, str(err)))
-        if same is not None:
-            first.append((same, RECOVERY.same_map))
+            return []
+
     return recovering(field, bare.case, bare, build, substeps=substeps, classes=classes,
                       refused=refused, first=first)

@@ -54,7 +54,10 @@ def advance_with_recovery(kernel, method, x, status, n, recovered, n_target, h, 
             kernel.advance(x, status, n, n_target, h, save_every, n_total, xs, recovered=recovered)
         else:
             events.advance(kernel, x, status, n, n_target, h)
-        idx = np.flatnonzero((before == RESULTS.successful) & (status != RESULTS.successful))
+        # a line that left the domain (a wall, a gridded field's box) stopped: every alternative
+        # evaluates the same field, which does not exist out there, so it is never retried
+        idx = np.flatnonzero((before == RESULTS.successful) & (status != RESULTS.successful)
+                             & (status != RESULTS.left_domain))
         # a non-finite state fails every alternative too (each maps the same point): not tried
         idx = idx[np.all(np.isfinite(x[idx]), axis=1)]
         if events is not None:  # a line the kernel stopped at a wall did not fail: not retried

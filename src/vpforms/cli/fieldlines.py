@@ -19,6 +19,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from .. import plots
+from .._errors import RESULTS
 from .._phases import LIBRARY_DELAY, Phases
 from ..coils import device_axis, device_names, read_makegrid
 from ..fieldlines import (
@@ -322,8 +323,11 @@ def _study(args, console) -> int:
         "ι of the lines": f"{np.nanmin(iota.iota):.6g} … {np.nanmax(iota.iota):.6g} "
                           f"(max Birkhoff error estimate {np.nanmax(iota.error):.1e})",
         "crossings": len(sec),
-        "failed lines": int(np.count_nonzero(sec.status != 0)),
+        "failed lines": int(np.count_nonzero((sec.status != 0) & (sec.status != RESULTS.left_domain))),
     }
+    left = int(np.count_nonzero(sec.status == RESULTS.left_domain))
+    if left:  # a stop at the field's edge (a grid's box, a domain), never retried: not a failure
+        rows["lines that left the field's domain"] = f"{left} of {len(x0)} (stopped at its edge; no ι)"
     for fp in chains:
         rows[f"{fp.kind}-point, m = {fp.m}"] = f"({fp.R:.8g}, {fp.Z:.3g}), residue {fp.residue:.4g}"
     if hits is not None:

@@ -46,11 +46,15 @@ __all__ = ["AxisCurve", "Iota", "axis_curve", "rotational_transform", "iota_prof
 
 
 def birkhoff_weight(t):
-    """w(t) = exp(−1/(t(1 − t))) on (0, 1), 0 outside: smooth, all derivatives vanish at 0 and 1."""
-    t = jnp.asarray(t)
+    """w(t) = exp(−1/(t(1 − t))) on (0, 1), 0 outside: smooth, all derivatives vanish at 0 and 1.
+
+    NumPy in, NumPy out (no JAX compilation per length: the native ι reads one length per line);
+    a JAX array or tracer in, JAX out."""
+    xp = jnp if isinstance(t, jax.Array) else np
+    t = xp.asarray(t, dtype=float)
     inside = (t > 0) & (t < 1)
-    ts = jnp.where(inside, t, 0.5)
-    return jnp.where(inside, jnp.exp(-1.0 / (ts * (1.0 - ts))), 0.0)
+    ts = xp.where(inside, t, 0.5)
+    return xp.where(inside, xp.exp(-1.0 / (ts * (1.0 - ts))), 0.0)
 
 
 @dataclass(frozen=True)
@@ -266,9 +270,9 @@ def _native_sums(method, pts, h, n_steps, ax, toroidal, progress):
         ph = np.append(phi0[i], sec.phi[k])
         dth, dph = np.asarray(wrap_angle(np.diff(th))), np.asarray(wrap_angle(np.diff(ph)))
         n = dth.size
-        w = np.asarray(birkhoff_weight((np.arange(n) + 0.5) / n))
+        w = birkhoff_weight((np.arange(n) + 0.5) / n)
         half = n // 2
-        wh = np.asarray(birkhoff_weight((np.arange(half) + 0.5) / max(half, 1)))
+        wh = birkhoff_weight((np.arange(half) + 0.5) / max(half, 1))
         sums[i] = [w @ dth, w @ dph, wh @ dth[:half], wh @ dph[:half], dth.sum(), dph.sum()]
     return sums, status
 
