@@ -20,7 +20,7 @@ import pytest
 
 import vpforms
 from vpforms import RESULTS, ConvergenceError, problems
-from vpforms.fieldlines import birkhoff_weight, find_fixed_point, magnetic_axis, return_map
+from vpforms.fieldlines import axis_curve, birkhoff_weight, find_fixed_point, magnetic_axis, return_map
 from vpforms.fieldlines._axis_search import HALVINGS, search_axis
 
 from .test_fieldlines import R0, E, TwistMethod, iota_of, radius, twist
@@ -138,6 +138,25 @@ def test_real_fields_from_guesses_5cm_off_find_the_axis_of_the_exact_guess(name)
         assert ax.converged and math.hypot(ax.R - ref.R, ax.Z - ref.Z) <= 1e-9
         assert abs(ax.iota - ref.iota) <= 1e-6
         assert ax.evaluations <= 3 * 32 + 5 * 10 + 30  # refinement + few Newton steps (native: 5 lines a Jacobian)
+
+
+@pytest.mark.slow
+def test_stellarator_axis_curve_passes_through_the_axis_of_every_plane():
+    """axis_curve traces the l = 2 stellarator's axis line over one field period (its step count
+    from B^φ, extended until the trace covers the period) and fits it in φ: at φ₀ it is the axis
+    found there, and a quarter period on it is the axis that Newton finds in that plane from it."""
+    prob = problems.get("coil_stellarator")
+    m = vpforms.compose(vpforms.scheme(prob.field, "SE+SE"), order=2)
+    nfp = int(round(2 * math.pi / prob.field.periods[1]))
+    ax0 = magnetic_axis(m, prob.axis_guess, 0.05, 0.0, nfp)
+    curve = axis_curve(m, ax0, 0.05, harmonics=16)
+    R0_, Z0_ = (float(v) for v in curve(jnp.asarray(0.0)))
+    assert math.hypot(R0_ - ax0.R, Z0_ - ax0.Z) <= 1e-6
+    quarter = math.pi / (2 * nfp)  # where the axis is farthest from its φ₀ point (Z ≈ 1.4e-5 m)
+    Rq, Zq = (float(v) for v in curve(jnp.asarray(quarter)))
+    axq = magnetic_axis(m, (Rq, Zq), 0.05, quarter, nfp)
+    assert axq.converged and math.hypot(axq.R - Rq, axq.Z - Zq) <= 1e-6, (axq.R - Rq, axq.Z - Zq)
+    assert math.hypot(axq.R - ax0.R, axq.Z - ax0.Z) > 1e-5  # the axis moves more than the tolerance
 
 
 @pytest.mark.slow

@@ -38,6 +38,7 @@ from ..backends.jax_runner import _StepFn, auto_chunk_size
 from ..diagnostics._common import _chunks, _pad
 from ..diagnostics._surfaces import wrap_angle
 from ._domain import check_off_axis, check_radii, check_starts
+from ._native_map import _steps_per_period
 from ._geometry import cylindrical, is_toroidal
 from ._returnmap import ReturnMap
 from ._sections import toroidal_section
@@ -97,15 +98,23 @@ def axis_curve(method: Any, axis: Any, h: float, *, harmonics: int = 8) -> AxisC
     :class:`AxisCurve` in φ (for non-axisymmetric fields, where the axis moves with φ)."""
     P = ReturnMap(method, h, axis.phi0, axis.nfp)
     x = np.asarray(P.state(jnp.array([axis.R, axis.Z])))
-    X, _ = method.step_with_status(jnp.asarray(x), h)
-    dphi = abs(float(P._dphi(X, jnp.asarray(x))))
-    if not dphi > 0:
+    # steps per period from B^φ at x (one field evaluation; a JAX step compiled for it cost 17 s
+    # on a spline field, issue #41), then as many more as the φ the trace covered says it lacks
+    per = _steps_per_period(P, x)
+    if not per < 1e7:  # B^φ ≈ 0 at the axis point
         raise ValueError("the axis line does not turn toroidally: no axis curve")
-    n = max(8, math.ceil(P.period / (dphi)))
-    sol = integrate(method, x, h, n, save_every=1, progress=False)
-    if not sol.ok:
-        raise RuntimeError(f"tracing the axis line failed: {sol.summary()}")
-    R, phi, Z = (np.asarray(a) for a in cylindrical(jnp.asarray(sol.xs.reshape(-1, 3)), P.toroidal))
+    n = max(8, math.ceil(1.1 * per))
+    for _ in range(4):
+        sol = integrate(method, x, h, n, save_every=1, progress=False)
+        if not sol.ok:
+            raise RuntimeError(f"tracing the axis line failed: {sol.summary()}")
+        R, phi, Z = (np.asarray(a) for a in cylindrical(jnp.asarray(sol.xs.reshape(-1, 3)), P.toroidal))
+        covered = abs(float(np.unwrap(phi)[-1] - phi[0]))
+        if covered >= P.period:
+            break
+        n = math.ceil(n * 1.1 * P.period / max(covered, P.period / n))
+    else:
+        raise ValueError(f"the axis line covered {covered:.3g} of the period {P.period:.3g} in φ: no axis curve")
     return AxisCurve.fit(phi, R, Z, axis.nfp, harmonics)
 
 
