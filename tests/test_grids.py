@@ -36,6 +36,7 @@ from vpforms.grids import (
     write_mgrid,
 )
 from vpforms.grids._bspline import basis_functions, cell_polynomials
+from vpforms.grids._evaluate_np import derivatives_np
 from vpforms.grids._spline_potential import chunked
 
 # ------------------------------------------------------------------------- analytic references
@@ -198,6 +199,29 @@ def test_tensor_spline_values_and_mixed_derivatives_equal_scipy_tensor_products(
             ref = np.einsum("abc,na,nb,nc->n", c, D(0, alpha[0]), D(1, alpha[1]), D(2, alpha[2]))
             g = got[order][(slice(None), *idx)]
             assert _rel(g, ref) < 1e-11, (alpha, _rel(g, ref))
+            # the NumPy evaluation (no compilation: grids._evaluate_np) is the same spline
+            g_np = derivatives_np(s, pts, [tuple(alpha)])[0]
+            assert _rel(g_np, ref) < 1e-11, (alpha, _rel(g_np, ref))
+
+
+@pytest.mark.parametrize("degree", [3, 5])
+def test_numpy_curl_is_the_jax_curl_off_the_grid_too(degree):
+    """SplinePotential.curl (NumPy, grids._evaluate_np) equals the JAX curl of the same splines
+    (jit(vmap(curl_of))) to rounding, beyond one period in φ, and is NaN exactly where it is: off
+    the grid on a non-periodic axis."""
+    rng = np.random.default_rng(degree)
+    u, phi, z = toroidal_grid(12, 10, 11)
+    pot = SplinePotential.from_samples((u, phi, z), rng.standard_normal((3, 12, 10, 11)),
+                                       periodic=(False, T, False), degree=degree)
+    pts = toroidal_points(3000, 2)
+    pts[:, 1] = rng.uniform(-2 * T, 3 * T, len(pts))
+    pts[:20, 0] = u[0] - 1e-3  # off the grid
+    pts[20:40, 2] = z[-1] + 1e-3
+    got = pot.curl(pts)
+    want = np.asarray(jax.jit(jax.vmap(curl_of(pot.splines)))(jnp.asarray(pts)))
+    np.testing.assert_array_equal(np.isnan(got), np.isnan(want))
+    assert np.isnan(got[:40]).all() and np.isfinite(got[40:]).all()
+    assert _rel(got[40:], want[40:]) < 1e-12, _rel(got[40:], want[40:])
 
 
 # --------------------------------------------------------------------------- ∇·B at rounding
@@ -670,3 +694,29 @@ def test_field_lines_on_a_gridded_field_are_volume_preserving_and_fail_per_parti
     rec = vpforms.integrate(rm, p0, 0.02, 100, progress=False, backend="jax")
     assert list(np.asarray(rec.status)) == [RESULTS.successful] * 2 + [RESULTS.left_domain]
     assert f.grid_potential.contains(np.asarray(sol.xs)[:2, -1]).all()
+
+
+@pytest.mark.parametrize("degree", [3, 5])
+def test_affine_components_are_written_down_as_their_own_interpolant(degree):
+    """from_samples(affine=…): the Greville-abscissae spline of an affine component is the spline the
+    fit of its samples gives (to rounding), on non-uniform knots with a periodic axis; a slope along
+    the periodic axis is refused."""
+    rng = np.random.default_rng(degree)
+    v = np.r_[0.0, np.sort(rng.uniform(0, 1, 12)), 1.0]
+    phi, z = np.arange(10) * 0.3, np.linspace(-1, 1, 13)
+    V, P, Z = np.meshgrid(v, phi, z, indexing="ij")
+    C = np.stack([0.5 + 0 * V, np.sin(2 * np.pi * P / 3.0) * V + Z**2, 0.25 - V + 2 * Z])
+    fitted = SplinePotential.from_samples((v, phi, z), C, periodic=(False, 3.0, False), degree=degree)
+    written = SplinePotential.from_samples((v, phi, z), C, periodic=(False, 3.0, False), degree=degree,
+                                           affine=((0.5, 0, 0, 0), None, (0.25, -1, 0, 2)))
+    assert written.affine == ((0.5, 0, 0, 0), None, (0.25, -1, 0, 2))
+    for f, w in zip(fitted.splines, written.splines):  # the fit's own rounding: ~1e-13 at degree 5
+        np.testing.assert_allclose(np.asarray(w.coefficients), np.asarray(f.coefficients), rtol=0, atol=1e-11)
+    # and it is the affine function itself, beyond the fit's rounding
+    q = np.stack([rng.uniform(0, 1, 500), rng.uniform(-3, 6, 500), rng.uniform(-1, 1, 500)], axis=1)
+    d = derivatives_np(written.splines[2], q, [(0, 0, 0)])[0]
+    np.testing.assert_allclose(d, 0.25 - q[:, 0] + 2 * q[:, 2], rtol=0, atol=1e-13)
+    np.testing.assert_allclose(derivatives_np(written.splines[0], q, [(0, 0, 0)])[0], 0.5, rtol=0, atol=1e-14)
+    with pytest.raises(ValueError, match="periodic axis 1"):
+        SplinePotential.from_samples((v, phi, z), C, periodic=(False, 3.0, False), degree=degree,
+                                     affine=((0, 0, 1, 0), None, None))

@@ -90,32 +90,31 @@ def cell_polynomials(t: np.ndarray, k: int) -> np.ndarray:
     """Per knot interval [t_i, t_{i+1}), i = k … m − 1, the power-basis coefficients of its k+1
     non-zero B-splines in y = x − t_i: P[i − k, r, p] is the coefficient of y^p in B_{i−k+r}.
 
-    Cox–de Boor (Piegl & Tiller A2.2) on polynomials in y, once per interval at construction:
-    every denominator t_{i+r+1} − t_{i+1−j+r} spans [t_i, t_{i+1}], positive when it is non-empty
-    (empty intervals are never selected by the evaluation; their rows stay zero)."""
+    Cox–de Boor (Piegl & Tiller A2.2) on polynomials in y, for all intervals at once (arrays over
+    the intervals; a factor (a ± y) shifts the coefficients): every denominator
+    t_{i+r+1} − t_{i+1−j+r} spans [t_i, t_{i+1}], positive when it is non-empty (empty intervals
+    are never selected by the evaluation; their rows stay zero)."""
     t = np.asarray(t, dtype=float)
     m = t.size - k - 1
-    P = np.zeros((m - k, k + 1, k + 1))
-    for i in range(k, m):
-        if not t[i] < t[i + 1]:
-            continue
-        N = [np.array([1.0])]
+    i = np.arange(k, m)
+
+    def times_y(p):  # p(y)·y: degree ≤ k throughout, the top coefficient is never shifted out
+        return np.concatenate([np.zeros((p.shape[0], 1)), p[:, :-1]], axis=1)
+
+    N = [np.zeros((i.size, k + 1)) for _ in range(k + 1)]
+    N[0][:, 0] = 1.0
+    with np.errstate(divide="ignore", invalid="ignore"):  # empty intervals: zeroed below
         for j in range(1, k + 1):
-            saved = np.zeros(1)
+            saved = np.zeros((i.size, k + 1))
             for r in range(j):
-                temp = N[r] / (t[i + r + 1] - t[i + 1 - j + r])
-                right = np.array([t[i + r + 1] - t[i], -1.0])  # t_{i+r+1} − x
-                left = np.array([t[i] - t[i + 1 - j + r], 1.0])  # x − t_{i+1−j+r}
-                N[r] = _padd(saved, _pmul(right, temp))
-                saved = _pmul(left, temp)
-            N.append(saved)
-        for r in range(k + 1):
-            P[i - k, r, : N[r].size] = N[r][: k + 1]
+                temp = N[r] / (t[i + r + 1] - t[i + 1 - j + r])[:, None]
+                # N_r ← saved + (t_{i+r+1} − x)·temp;  saved ← (x − t_{i+1−j+r})·temp, with x = t_i + y
+                N[r] = saved + (t[i + r + 1] - t[i])[:, None] * temp - times_y(temp)
+                saved = (t[i] - t[i + 1 - j + r])[:, None] * temp + times_y(temp)
+            N[j] = saved
+    P = np.stack(N, axis=1)
+    P[~(t[i] < t[i + 1])] = 0.0
     return P
-
-
-_padd = np.polynomial.polynomial.polyadd
-_pmul = np.polynomial.polynomial.polymul
 
 
 def _axis(t: jax.Array, P: jax.Array, k: int, period: float | None, x: jax.Array,

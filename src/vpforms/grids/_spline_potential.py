@@ -18,8 +18,9 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._quadrature import DEFAULT_N
-from .._vecpot import VectorPotential, curl_of
+from .._vecpot import VectorPotential
 from ._bspline import TensorSpline, degree_name
+from ._evaluate_np import curl_np
 
 __all__ = ["SplinePotential"]
 
@@ -84,9 +85,10 @@ class SplinePotential(VectorPotential):
         return chunked(_values_at, self.splines, x)  # concrete points: numpy, in chunks
 
     def curl(self, x: Any) -> np.ndarray:
-        """a = ∇×A (contravariant, unit Jacobian) at points (..., 3) → (..., 3), in chunks of one
-        shape: compiled once per grid structure (the spline data are passed at run time)."""
-        return chunked(_curl_at, self.splines, x)
+        """a = ∇×A (contravariant, unit Jacobian) at concrete points (..., 3) → (..., 3), NumPy:
+        nothing compiled, whatever the grid's shape (:mod:`._evaluate_np`; a grid search builds a
+        new shape every round)."""
+        return curl_np(self.splines, x)
 
     # -- the grid ---------------------------------------------------------------------------
     @property
@@ -143,24 +145,40 @@ class SplinePotential(VectorPotential):
     @classmethod
     def from_samples(cls, nodes: Sequence[Any], values: Any,
                      periodic: Sequence[bool | float | None] = (False, True, False),
-                     degree: int = 3, description: str = "", mask: Any = None) -> SplinePotential:
+                     degree: int = 3, description: str = "", mask: Any = None,
+                     affine: Sequence[Any] = (None, None, None)) -> SplinePotential:
         """The interpolating splines of samples A_i at the tensor grid ``nodes`` (where ``mask``
         is given, on its kept nodes only: :meth:`TensorSpline.interpolate`).
 
         ``values`` has shape (3, n₁, n₂, n₃) (covariant components); ``periodic`` per axis as in
         :meth:`TensorSpline.interpolate` (True: uniform nodes, one period without the endpoint;
-        a number: the period)."""
+        a number: the period). ``affine``: per component None, or the (a₀, a₁, a₂, a₃) of an affine
+        function the component is (zero slope along a periodic axis): its spline is written down
+        instead of fitted — the interpolant of an affine function is itself, with the Greville
+        abscissae as coefficients — and :attr:`affine` is set (its ``values`` are ignored)."""
         v = np.asarray(values, dtype=float)
         shape = tuple(np.size(n) for n in nodes)
         if v.shape != (3, *shape):
             raise ValueError(f"values must have shape (3, *grid) = {(3, *shape)}; got {v.shape}")
-        splines = [TensorSpline.interpolate(nodes, v[i], periodic, degree, mask) for i in range(3)]
+        affine = tuple(None if a is None else tuple(float(c) for c in a) for a in affine)
+        fitted = [i for i in range(3) if affine[i] is None]
+        if not fitted:
+            raise ValueError("at least one component must be fitted (all three are affine)")
+        splines = [TensorSpline.interpolate(nodes, v[i], periodic, degree, mask) if i in fitted else None
+                   for i in range(3)]
+        ref = splines[fitted[0]]
+        for i in range(3):
+            if splines[i] is None:
+                splines[i] = _affine_spline(ref, affine[i])
         # the three components share their knot vectors (one object each: one constant under jit)
-        for s in splines[1:]:
-            s.knots, s.cells = splines[0].knots, splines[0].cells
+        for s in splines:
+            s.knots, s.cells = ref.knots, ref.cells
         desc = description or (
             f"{degree_name(degree)} spline of A on a {'×'.join(map(str, shape))} grid")
-        return cls(splines, desc)
+        out = cls(splines, desc)
+        if any(a is not None for a in affine):
+            out.affine = affine
+        return out
 
     @classmethod
     def from_potential(cls, A: VectorPotential | Callable[[Any], Any], nodes: Sequence[Any],
@@ -178,6 +196,22 @@ class SplinePotential(VectorPotential):
                     per[a] = A.periods[a]
         values = sample_on_grid(A, grids)
         return cls.from_samples(grids, values, per, degree, description)
+
+
+def _affine_spline(like: TensorSpline, a: Sequence[float]) -> TensorSpline:
+    """The spline a₀ + a₁x₁ + a₂x₂ + a₃x₃ on the knots of ``like``: x_i = Σ_j ξ_j B_j(x_i) with the
+    Greville abscissae ξ_j = (t_{j+1} + … + t_{j+k})/k (Marsden's identity), so the coefficients are
+    a₀ + Σ a_i ξ^(i) — the interpolant of the affine function, without a fit."""
+    c = np.full(like.shape, float(a[0]))
+    for i in range(3):
+        if not a[i + 1]:
+            continue
+        if like.periods[i] is not None:
+            raise ValueError(f"an affine component cannot grow along the periodic axis {i}")
+        t, k = np.asarray(like.knots[i]), like.degrees[i]
+        xi = np.array([t[j + 1: j + k + 1].mean() for j in range(like.shape[i])]) if k else t[:-1]
+        c = c + a[i + 1] * xi.reshape([-1 if b == i else 1 for b in range(3)])
+    return TensorSpline(like.knots, like.degrees, c, like.periods)
 
 
 def affine_value(a: Sequence[float], x: Sequence[Any]) -> Any:
@@ -207,11 +241,6 @@ def _affine_callable(a: Sequence[float], k: int | None = None, c: float = 0.0) -
 @jax.jit
 def _values_at(splines, pts):
     return jax.vmap(lambda p: jnp.stack([s(p[0], p[1], p[2]) for s in splines]))(pts)
-
-
-@jax.jit
-def _curl_at(splines, pts):
-    return jax.vmap(curl_of(splines))(pts)
 
 
 def chunked(fn: Callable[[Any, jax.Array], jax.Array], data: Any, x: Any) -> np.ndarray:

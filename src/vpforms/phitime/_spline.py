@@ -120,10 +120,9 @@ def _K_samples(coords: PhiTimeCoordinates, nodes: tuple[np.ndarray, ...], chunk:
     """C = (0, K, −v) at the nodes, shape (3, n_v, n_φ, n_Z)."""
     n = tuple(x.size for x in nodes)
     V, P, Z = (t.ravel() for t in np.meshgrid(*nodes, indexing="ij"))
-    K = jax.jit(jax.vmap(coords._K))
+    K = _batched(coords, "K", lambda: jax.jit(jax.vmap(coords._K)))
     with phase(f"sampling K at {V.size:,} nodes (U by Newton at each)"):
-        vals = np.concatenate([np.asarray(K(V[i:i + chunk], P[i:i + chunk], Z[i:i + chunk]))
-                               for i in range(0, V.size, chunk)])
+        vals = _in_blocks(lambda y: K(y[:, 0], y[:, 1], y[:, 2]), np.stack([V, P, Z], axis=1), chunk)
     if not np.all(np.isfinite(vals)):
         i = int(np.flatnonzero(~np.isfinite(vals))[0])
         raise ValueError(f"K is not finite at the node (v, φ, Z) = ({V[i]:.6g}, {P[i]:.6g}, {Z[i]:.6g}) "
@@ -134,11 +133,11 @@ def _K_samples(coords: PhiTimeCoordinates, nodes: tuple[np.ndarray, ...], chunk:
 def _C_spline(coords: PhiTimeCoordinates, nodes: tuple[np.ndarray, ...], C: np.ndarray, degree: int) -> SplinePotential:
     """The spline potential of the samples C = (0, K, −v) on ``nodes``."""
     n = tuple(x.size for x in nodes)
-    pot = SplinePotential.from_samples(
+    # C_v = 0 and C_Z = −v are affine: written down, not fitted, and used themselves (pot.affine)
+    return SplinePotential.from_samples(
         nodes, C, periodic=(False, coords.period, False), degree=degree,
-        description=f"φ-time potential (0, K, −v), K splined on a {'×'.join(map(str, n))} (v, φ, Z) grid")
-    pot.affine = ((0, 0, 0, 0), None, (0, -1, 0, 0))  # C_v = 0 and C_Z = −v themselves, not splines
-    return pot
+        description=f"φ-time potential (0, K, −v), K splined on a {'×'.join(map(str, n))} (v, φ, Z) grid",
+        affine=((0, 0, 0, 0), None, (0, -1, 0, 0)))
 
 
 def _K_spline_to_tol(coords, start, degree, cluster, chunk, tol, region, max_memory):
@@ -200,7 +199,33 @@ def _b_exact(coords: PhiTimeCoordinates, y: np.ndarray) -> np.ndarray:
         dK = jax.grad(coords._K, argnums=(0, 2))(p[0], p[1], p[2])
         return jnp.stack([-dK[1], jnp.ones_like(dK[0]), dK[0]])
 
-    return np.asarray(jax.jit(jax.vmap(b))(jnp.asarray(y)))
+    return _in_blocks(_batched(coords, "b", lambda: jax.jit(jax.vmap(b))), np.asarray(y, float).reshape(-1, 3))
+
+
+#: points per compiled call of the per-node Newton functions (every call is padded to it: one
+#: compilation per coordinates, whatever the grid — a tolerance search samples a new grid each round)
+_BLOCK = 8192
+
+
+def _batched(coords: PhiTimeCoordinates, name: str, make):
+    """The jitted batched function ``name`` of these coordinates, made once (kept on them)."""
+    cache = coords.__dict__.setdefault("_batched_fns", {})
+    if name not in cache:
+        cache[name] = make()
+    return cache[name]
+
+
+def _in_blocks(fn, y: np.ndarray, chunk: int = _BLOCK) -> np.ndarray:
+    """fn(y block) for y (n, 3) in blocks of min(chunk, _BLOCK, the power of two ≥ n) rows, the
+    last one padded: a few shapes (1000 check points run as 1024, grids as 8192), never one per grid."""
+    B = max(1, min(int(chunk), _BLOCK, 1 << max(0, int(y.shape[0]) - 1).bit_length()))
+    out = []
+    for i in range(0, y.shape[0], B):
+        q = y[i:i + B]
+        pad = B - q.shape[0]
+        q = np.concatenate([q, np.repeat(q[-1:], pad, axis=0)]) if pad else q
+        out.append(np.asarray(fn(jnp.asarray(q)))[: B - pad])
+    return np.concatenate(out)
 
 
 def _b_error(coords: PhiTimeCoordinates, pot: Any, n: int, seed: int) -> float:
