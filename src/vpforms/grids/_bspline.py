@@ -135,17 +135,19 @@ def _axis(t: jax.Array, P: jax.Array, k: int, period: float | None, x: jax.Array
     i = jnp.clip(jnp.sum(t <= xs).astype(jnp.int32) - 1, k, m - 1)
     y = x - jax.lax.dynamic_slice(t, (i,), (1,))[0]
     Pi = jax.lax.dynamic_slice(P, (i - k, jnp.int32(0), jnp.int32(0)), (1, k + 1, k + 1))[0]
-    out = {}
-    for n in sorted(set(orders)):
-        if n > k:  # the cell polynomials have degree k
-            out[n] = jnp.zeros(k + 1) + 0.0 * y
-            continue
-        # Horner for d^n/dy^n Σ_p P_p y^p = Σ_{p ≥ n} p!/(p − n)! P_p y^(p−n)
-        N = math.perm(k, n) * Pi[:, k]
-        for p in range(k - 1, n - 1, -1):
-            N = N * y + math.perm(p, n) * Pi[:, p]
-        out[n] = N + 0.0 * y if n == k else N  # NaN off the grid, also for a constant
-    return out, i - k
+    return {n: basis_derivative(Pi, y, k, n) for n in sorted(set(orders))}, i - k
+
+
+def basis_derivative(Pi, y, k: int, n: int):
+    """d^n/dy^n of the k+1 cell polynomials Pi[..., r, p] (coefficient of y^p) at y, by Horner:
+    Σ_{p ≥ n} p!/(p − n)! P_p y^(p−n); shape (..., k+1). NumPy or JAX alike (y broadcast against
+    Pi[..., 0]); NaN where y is NaN (off the grid), also for a constant."""
+    if n > k:  # the cell polynomials have degree k
+        return 0.0 * Pi[..., 0] + 0.0 * y
+    N = math.perm(k, n) * Pi[..., k]
+    for p in range(k - 1, n - 1, -1):
+        N = N * y + math.perm(p, n) * Pi[..., p]
+    return N + 0.0 * y if n == k else N
 
 
 def _contract(knots, cells, degrees, periods, orders, coefficients, x1, x2, x3) -> jax.Array:

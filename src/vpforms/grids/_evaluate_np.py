@@ -11,10 +11,11 @@ degree-5 search on the l = 2 coils, issue #39). Here nothing is compiled.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 
 import numpy as np
+
+from ._bspline import basis_derivative
 
 __all__ = ["derivatives_np", "curl_np"]
 
@@ -38,17 +39,7 @@ def _axis_np(t: np.ndarray, P: np.ndarray, k: int, period: float | None, x: np.n
     i = np.clip(np.searchsorted(t, np.nan_to_num(xs, nan=lo), side="right") - 1, k, m - 1)
     y = (x - t[i])[:, None]
     Pi = P[i - k]  # (N, k+1 basis functions, k+1 powers)
-    out = {}
-    for n in sorted(set(orders)):
-        if n > k:  # the cell polynomials have degree k
-            out[n] = np.zeros((x.size, k + 1)) + 0.0 * y
-            continue
-        # Horner for d^n/dy^n Σ_p P_p y^p = Σ_{p ≥ n} p!/(p − n)! P_p y^(p−n)
-        N = math.perm(k, n) * Pi[:, :, k]
-        for p in range(k - 1, n - 1, -1):
-            N = N * y + math.perm(p, n) * Pi[:, :, p]
-        out[n] = N + 0.0 * y if n == k else N  # NaN off the grid, also for a constant
-    return out, i - k
+    return {n: basis_derivative(Pi, y, k, n) for n in sorted(set(orders))}, i - k
 
 
 def derivatives_np(spline, points: np.ndarray, orders: Sequence[Sequence[int]]) -> np.ndarray:
