@@ -123,19 +123,23 @@ def _axis(t: jax.Array, P: jax.Array, k: int, period: float | None, x: jax.Array
     ``orders``, index of the first coefficient) of one axis: the cell's polynomials P[i − k],
     differentiated exactly, at y = x − t_i."""
     m = t.shape[0] - k - 1  # number of coefficients
-    lo = t[k]
-    if period is not None:
-        x = lo + jnp.mod(x - lo, period)  # wrap into the base period [t_k, t_k + T)
-        xs = x
-    else:
-        xs = x
-        # NaN outside [t_k, t_m]: the value and every derivative (each is an evaluation of its own)
-        x = jnp.where((x >= lo) & (x <= t[m]), x, jnp.nan)
+    x, xs = wrapped(t, k, period, x, jnp)
     # the knot interval t_i ≤ x < t_{i+1}, k ≤ i ≤ m − 1 (the right end belongs to the last one)
     i = jnp.clip(jnp.sum(t <= xs).astype(jnp.int32) - 1, k, m - 1)
     y = x - jax.lax.dynamic_slice(t, (i,), (1,))[0]
     Pi = jax.lax.dynamic_slice(P, (i - k, jnp.int32(0), jnp.int32(0)), (1, k + 1, k + 1))[0]
     return {n: basis_derivative(Pi, y, k, n) for n in sorted(set(orders))}, i - k
+
+
+def wrapped(t, k: int, period: float | None, x, xp):
+    """(x for the basis, x for the interval search) on one axis, ``xp`` = numpy or jax.numpy:
+    wrapped into the base period [t_k, t_k + T) on a periodic axis; else x itself for the search
+    and NaN outside [t_k, t_m] for the basis (the value and every derivative NaN off the grid)."""
+    lo = t[k]
+    if period is not None:
+        x = lo + xp.mod(x - lo, period)
+        return x, x
+    return xp.where((x >= lo) & (x <= t[t.shape[0] - k - 1]), x, xp.nan), x
 
 
 def basis_derivative(Pi, y, k: int, n: int):

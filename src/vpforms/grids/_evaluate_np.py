@@ -15,7 +15,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ._bspline import basis_derivative
+from ._bspline import basis_derivative, wrapped
 
 __all__ = ["derivatives_np", "curl_np"]
 
@@ -28,15 +28,9 @@ def _axis_np(t: np.ndarray, P: np.ndarray, k: int, period: float | None, x: np.n
     """({n: the n-th derivatives of the k+1 non-zero basis functions at x, shape (N, k+1)}, index
     of each point's first coefficient (N,)) on one axis (``_bspline._axis`` over arrays)."""
     m = t.size - k - 1
-    lo = t[k]
-    if period is not None:
-        x = lo + np.mod(x - lo, period)  # wrap into the base period [t_k, t_k + T)
-        xs = x
-    else:
-        xs = x
-        x = np.where((x >= lo) & (x <= t[m]), x, np.nan)  # NaN off the grid, every derivative too
+    x, xs = wrapped(t, k, period, x, np)
     # the knot interval t_i ≤ x < t_{i+1}, k ≤ i ≤ m − 1 (the right end belongs to the last one)
-    i = np.clip(np.searchsorted(t, np.nan_to_num(xs, nan=lo), side="right") - 1, k, m - 1)
+    i = np.clip(np.searchsorted(t, np.nan_to_num(xs, nan=t[k]), side="right") - 1, k, m - 1)
     y = (x - t[i])[:, None]
     Pi = P[i - k]  # (N, k+1 basis functions, k+1 powers)
     return {n: basis_derivative(Pi, y, k, n) for n in sorted(set(orders))}, i - k
