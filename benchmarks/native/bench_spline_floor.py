@@ -8,8 +8,9 @@ its cell (64 for a tricubic spline) and contracts them with the three bases. Thi
 exactly that and nothing else, in C compiled with the backend's flags, on the same data the
 native kernel gets (``fd``, the header layout of :mod:`vpforms.backends.native.codegen.splines`):
 
-* the pairs are read off the generated kernel: the splines the guard reads at x, and the splines
-  each Newton loop reads (``vp_seg``, the kept cell of each hoisted line);
+* the pairs are read off the generated kernel: the splines read at x for a(x) (the guard's B(x),
+  which the first stage evaluates), and the splines each Newton loop reads (``vp_lines``, the
+  blocks of its hoisted lines, contracted on entering a cell);
 * the points are the field lines' own: x, and for the solves the state after one native step
   (within one step of the solves' points: the same cells, the same cache behaviour);
 * per pair: the cell on each axis (the uniform guess, clipped), the three bases (Horner on the
@@ -55,11 +56,17 @@ CDEF = ("void vp_floor(int64_t N, const double *x, const double *X, const double
 
 
 def pairs(source: str) -> tuple[set[int], list[set[int]]]:
-    """(the header offsets the guard reads at x, per Newton loop the offsets it reads) of a
-    generated spline kernel."""
+    """(the header offsets read at x for the guard's a(x), per Newton loop the offsets it reads)
+    of a generated spline kernel: a(x) is evaluated by the step before its first stage, or by the
+    first stage before its first loop (which then hands it to the guard)."""
     step = source[source.index("int vp_step_exact("):]
-    guard = {int(o) for o in re.findall(r"vp_c0\w*\(fd, fd \+ (\d+),", step[:step.index("vp_exact0(")])}
-    loops = [{int(o) for o in re.findall(r"vp_seg\(fd, fd \+ (\d+),", body)}
+    stage = source[source.index("int vp_exact0("):]
+    at_x = step[:step.index("vp_exact0(")]
+    if "vp_c0" not in at_x:
+        at_x = stage[:stage.index("for (int it = 0;")]
+    guard = {int(o) for o in re.findall(r"vp_c0\w*\(fd, fd \+ (\d+),", at_x)}
+    # a loop's splines: the blocks its cached lines contract (vp_lines, on entering a cell)
+    loops = [{int(o) for o in re.findall(r"vp_lines_\w+\(fd, fd \+ (\d+),", body)}
              for body in re.findall(r"for \(int it = 0;.*?if \(n\d+_st == -1\)", source, re.S)]
     return guard, loops
 
@@ -236,7 +243,7 @@ def main(argv=None) -> int:
               f"best of {rounds} runs of {n}) / (N·n); floor: best of {rounds} runs of {n} "
               f"steps / (N·n), in the kernel's loop order). Spline: {'×'.join(map(str, grid))} (R, φ, Z) nodes of A. The floor reads "
               f"the {len(blocks)} (spline, point) blocks the generated step reads — "
-              f"{len(guard)} at x for the guard's B(x), "
+              f"{len(guard)} at x for a(x) (the guard's B(x), also the first guess), "
               + ", ".join(f"{len(lp)} in solve {j + 1}" for j, lp in enumerate(loops))
               + f" ({coeffs} coefficients) — with their cells and bases, and nothing else "
               "(no solve, no sharing between blocks); the second floor reads them from per-cell "

@@ -142,17 +142,18 @@ def _newton_fixed_c(var: str, z0: str, g_dg: list[str], opts: tuple, tag: str) -
 
 
 def _solve_c(var: str, g: sp.Expr, subs: dict, guess: str, opts: tuple, tag: str,
-             newton: bool, fixed: bool) -> list[str]:
+             newton: bool, fixed: bool, later: tuple | None = None) -> list[str]:
     """Solve g(z) = 0 for ``var`` (z = the symbol _C["z"] after ``subs``); defines the status
     ``int {tag}_st``, or with ``fixed`` (the vectorised pass, :func:`_newton_fixed_c`) the
-    success flag ``double {tag}_ok``."""
+    success flag ``double {tag}_ok``. ``later``: what is evaluated at the root after the solve
+    (:func:`.splines.hoist`)."""
     g = sp.sympify(g).xreplace(subs)
     z = _C["z"]
     dg = sp.diff(g, z)
     if newton or z in dg.free_symbols:
         emit = _newton_fixed_c if fixed else _newton_c
         # spline axes whose argument does not move with z: evaluated once, before the iterations
-        pre = splines.hoist([g, dg], z, _printer) + coils.hoist([g, dg], z, _printer)
+        pre = splines.hoist([g, dg], z, _printer, later) + coils.hoist([g, dg], z, _printer)
         with data.scope():  # the iteration's body is a C block
             body = _assign([f"{tag}_g", f"{tag}_dg"], [g, dg], {}, f"{tag}c")
         return pre + emit(var, guess, body, opts, tag)
@@ -173,8 +174,9 @@ def _map_body(st: MapStage, newton: bool, fixed: bool) -> list[str]:
     Y3, Y2, y1, y2, y3, h = G.Y[2], G.Y[1], G.y[0], G.y[1], G.y[2], G.h
     c = _C
     sig, Sig, Sinv = st.case.sigma.index, st.case.Sigma.index, st.case.Sigma.inverse().index
-    lines = [f"double y{k + 1} = x{sig[k] + 1};" for k in range(3)]  # y = x·σ
-    base = {y1: c["y1"], y2: c["y2"], y3: c["y3"], h: c["h"]}
+    # y = x·σ, printed as the x it is: an atom at (y₃, y₂, ·) shares the cells and bases of a(x)
+    lines = []
+    base = {y1: c[f"x{sig[0] + 1}"], y2: c[f"x{sig[1] + 1}"], y3: c[f"x{sig[2] + 1}"], h: c["h"]}
     d2phi, d1phi = sp.diff(st.phi, y2), sp.diff(st.phi, Y3)
     d3Phi, d2Phi = sp.diff(st.Phi, y3), sp.diff(st.Phi, Y2)
     g1 = d2phi - y1  # volpot1: ∂₂φ(Y₃, y₂, y₃) = y₁, for Y₃
@@ -186,14 +188,27 @@ def _map_body(st: MapStage, newton: bool, fixed: bool) -> list[str]:
         if newton or c["z"] in sp.diff(gz, c["z"]).free_symbols:
             need[k] = Sig[k]
     xs = {G.x[i]: c[f"x{i + 1}"] for i in range(3)}
-    if need:
-        comps = sorted(set(need.values()))
+    # a(x): the components the guesses need; in the exact pass all three, written to ga where the
+    # caller asks (the guard's predictor, for the first stage: one evaluation of a(x) per step)
+    comps = sorted(set(need.values()))
+    if not fixed and comps:
+        lines += _assign([f"ga{i + 1}" for i in range(3)], list(st.field_exprs), xs, "ge")
+        lines.append("if (ga) { ga[0] = ga1; ga[1] = ga2; ga[2] = ga3; }")
+    elif not fixed:
+        with data.scope():  # a C block
+            own = _assign([f"ga{i + 1}" for i in range(3)], list(st.field_exprs), xs, "ge")
+        lines += ["if (ga) {", *(f"    {ln}" for ln in own), "    ga[0] = ga1; ga[1] = ga2; ga[2] = ga3;", "}"]
+    elif comps:
         lines += _assign([f"ga{i + 1}" for i in comps], [st.field_exprs[i] for i in comps], xs, "ge")
     guess = {k: f"x{i + 1} + h*ga{i + 1}" if k in need else "0.0"
              for k, i in ((2, Sig[2]), (1, Sig[1]))}
-    lines += _solve_c("Y3", g1, {**base, Y3: c["z"]}, guess[2], st.newton, "n1", newton, fixed)
+    # evaluated at the roots: g₂'s terms at Y₃ (the second solve's constants), volpot3 at (Y₃, Y₂)
+    at_roots = {**base, Y3: c["Y3"], Y2: c["Y2"]}
+    v3 = d2Phi.xreplace(at_roots)
+    lines += _solve_c("Y3", g1, {**base, Y3: c["z"]}, guess[2], st.newton, "n1", newton, fixed,
+                      ([g2.xreplace(at_roots), v3], c["Y3"], {c["Y2"]}))
     lines += _solve_c("Y2", g2, {**base, Y3: c["Y3"], Y2: c["z"]}, guess[1], st.newton, "n2",
-                      newton, fixed)
+                      newton, fixed, ([v3], c["Y2"], set()))
     lines += _assign(["Y1"], [d2Phi], {**base, Y3: c["Y3"], Y2: c["Y2"]}, "v3")  # volpot3
     lines += [f"X{i + 1} = Y{Sinv[i] + 1};" for i in range(3)]  # X = Y·Σ⁻¹
     if fixed:  # success flag only: finite input and output, both solves converged
@@ -349,12 +364,13 @@ def _rk4_body(field) -> list[str]:
 def _stage_fn(name: str, body: list[str], fixed: bool) -> str:
     """A stage: the exact one returns its status ``code``; the vectorised pass (``fixed``) its
     success flag ``ok`` (1.0: converged, finite; anything else is redone exactly). Its linkage is
-    ``_VP_STAGE`` (:func:`_kernel`: inlined, or compiled once and called)."""
+    ``_VP_STAGE`` (:func:`_kernel`: inlined, or compiled once and called). ``ga``: where the
+    caller wants the field a(x) at the stage's input x (the guard, of the first stage), else NULL."""
     step = "\n    ".join(body)
     ret, init = ("double", "double ok = 1.0;") if fixed else ("int", "int code = 0;")
     return f"""static _VP_STAGE {ret} {name}(double x1, double x2, double x3, double h,
                            double *restrict o1, double *restrict o2, double *restrict o3,
-                           const double *restrict fd) {{
+                           const double *restrict fd, double *restrict ga) {{
     double X1, X2, X3; {init}
     {step}
     *o1 = X1; *o2 = X2; *o3 = X3;
@@ -373,16 +389,19 @@ def _stage_body(stage: Any, newton: bool, fixed: bool) -> list[str]:
     return _map_body(stage, newton, fixed)
 
 
-def _guard_c(field: Any, kappa: float | None, fixed: bool) -> tuple[list[str], list[str]]:
+def _guard_c(field: Any, kappa: float | None, fixed: bool,
+             given: bool = False) -> tuple[list[str], list[str]]:
     """The consistency guard of :mod:`vpforms._guard` in C, and the domain test of a gridded
     field (``Method._accept``: a failed step whose Euler point is off the grid or not finite
     ``left_domain``): (lines at the step's start: the predictor E = x + h a(x); lines at its end:
-    the tests on the result y). Empty without either."""
+    the tests on the result y). Empty without either. ``given``: a(x) is read from ``gd_ax``,
+    which the first stage wrote (the lines then follow the stages, :func:`_step_fn`)."""
     box = splines.domain_test(field) if field is not None else []
     if field is None or (kappa is None and not box) or field_reason(field) is not None:
         return [], []
     xs = {G.x[i]: _C[f"x{i + 1}"] for i in range(3)}
-    pre = _assign([f"gd_a{i + 1}" for i in range(3)], list(field_exprs(field)), xs, "gd")
+    pre = ([f"double gd_a{i + 1} = gd_ax[{i}];" for i in range(3)] if given else
+           _assign([f"gd_a{i + 1}" for i in range(3)], list(field_exprs(field)), xs, "gd"))
     pre += [f"double gd_e{i} = x{i} + h*gd_a{i};" for i in (1, 2, 3)]
     out = []
     if box and not fixed:  # a success is never changed by it: the vectorised pass needs nothing
@@ -413,13 +432,20 @@ def _guard_c(field: Any, kappa: float | None, fixed: bool) -> tuple[list[str], l
     return pre, post + out
 
 
+def _same(a: tuple, b: tuple) -> bool:
+    """Whether two field expressions are the same SymPy expressions (so the same a(x))."""
+    return len(a) == len(b) and all(sp.sympify(u) == sp.sympify(v) for u, v in zip(a, b))
+
+
 def _data(ref) -> str:
     """A data scalar (:class:`.data.DataRef`) as C: its read of the data array."""
     return _printer.doprint(data.e_sub(ref))
 
 
-def _step_fn(name: str, calls: list[str], fixed: bool, guard=([], [])) -> str:
-    body = "\n    ".join([*guard[0], *calls, *guard[1]])
+def _step_fn(name: str, calls: list[str], fixed: bool, guard=([], []), given: bool = False) -> str:
+    """One step: the stages' ``calls``, the guard's lines (:func:`_guard_c`: its predictor before
+    the stages, or after them where the first stage gives a(x), ``given``; its tests after)."""
+    body = "\n    ".join([*calls, *guard[0], *guard[1]] if given else [*guard[0], *calls, *guard[1]])
     init = "double ok = 1.0;" if fixed else "int code = 0, c;"
     return f"""static _VP_STAGE {"double" if fixed else "int"} {name}(double x1, double x2, double x3, double h,
                           double *restrict o1, double *restrict o2, double *restrict o3,
@@ -513,18 +539,23 @@ def _kernel(method: Any, engine: str, entry: str) -> str:
             fns[kind], steps[kind] = "", _FAST_NONE
             vectorised = False
             continue
+        # the first stage starts at x and evaluates a(x) there: in the exact pass the guard reads
+        # it from that stage (the vectorised pass evaluates its own; gcc merges what it can)
+        given = (not fixed and isinstance(stages[0][0], MapStage) and field is not None
+                 and _same(stages[0][0].field_exprs, field_exprs(field)))
+        with data.scope(function=True):
+            guard = _guard_c(field, kappa, fixed, given)
         names: dict[str, str] = {}  # body → function name (stages with the same map share one)
-        calls = []
-        for stage, coef in stages:
+        calls = ["double gd_ax[3];"] if given and guard[0] else []
+        for k, (stage, coef) in enumerate(stages):
             with data.scope(function=True):
                 body = "\n".join(_stage_body(stage, engine == "newton", fixed))
             fn = names.setdefault(body, f"vp_{kind}{len(names)}")
-            call = f"{fn}(y1, y2, y3, {coef!r} * h, &y1, &y2, &y3, fd);"
+            ga = "gd_ax" if k == 0 and given and guard[0] else "0"
+            call = f"{fn}(y1, y2, y3, {coef!r} * h, &y1, &y2, &y3, fd, {ga});"
             calls.append(f"ok *= {call}" if fixed else f"c = {call} code = code ? code : c;")
         fns[kind] = "".join(_stage_fn(fn, body.split("\n"), fixed) for body, fn in names.items())
-        with data.scope(function=True):
-            guard = _guard_c(field, kappa, fixed)
-        steps[kind] = _step_fn(f"vp_step_{kind}", calls, fixed, guard)
+        steps[kind] = _step_fn(f"vp_step_{kind}", calls, fixed, guard, given)
     fns, steps = fns["fast"] + fns["exact"], steps["fast"] + steps["exact"]
     lanes = lane_code()
     # the Gauss–Legendre rules the quadrature potentials loop over (_gl_loops)

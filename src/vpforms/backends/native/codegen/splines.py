@@ -48,6 +48,10 @@ from .data import HS, PACKERS, DataRef, code3, e_sub, emission, nested, uncode3
 __all__ = ["C_HELPERS", "SplineAt", "domain_reason", "domain_test", "hoist", "spline_calls",
            "spline_exprs"]
 
+#: lines one ``vp_lines`` call contracts at most (``VP_LINES`` in :data:`C_HELPERS`)
+_VP_LINES = 8
+
+
 class SplineAt(sp.Function):
     """∂^orders s(x₁, x₂, x₃) of the tensor spline ``ref``: args (ref, orders, degrees, x₁, x₂,
     x₃), orders and degrees as :func:`.data.code3` s."""
@@ -181,45 +185,74 @@ def _axis(em: Any, ref: DataRef, a: int, k: int, arg: Any, n: int, printer: Any,
     return f"{q}_i", N
 
 
-def hoist(exprs: list[Any], z: Any, printer: Any) -> list[str]:
+def hoist(exprs: list[Any], z: Any, printer: Any, later: tuple | None = None) -> list[str]:
     """Before a Newton loop in z, in the current scope (the loop's body then reuses them): the
     spline atoms of ``exprs`` free of z, whole; for an atom whose argument moves with z on one
     axis only, the interval and basis of its two other axes and a cache of the block contracted
     over them (the coefficients along the moving axis in its current cell: an iteration that
-    stays in the cell costs one interval search, one basis and k + 1 products)."""
+    stays in the cell costs one interval search, one basis and k + 1 products).
+
+    ``later`` = (expressions evaluated after the loop, the solve's result u, symbols not known
+    yet): their atoms moving with u on one axis, the others known, get caches too, in the group
+    of the loop's atoms of the same spline, axis and other arguments: every member of a group is
+    contracted when its cell is entered, so that the atoms at the root (the next solve's
+    constants, the explicit component) are a Horner each in the cell the loop last entered."""
     em = emission(required=False)
     if em is None:
         return []
     lines: list[str] = []
     # not the atoms of a quadrature's integrand (bound to its node) nor those at a point that holds
     # atoms (evaluated in the loop's body, inner ones first)
-    atoms = sorted({a for e in exprs for a in sp.sympify(e).atoms(SplineAt)
-                    if GL_T not in a.free_symbols and not nested(a)},
-                   key=sp.default_sort_key)
+
+    def plain(es):
+        return sorted({a for e in es for a in sp.sympify(e).atoms(SplineAt)
+                       if GL_T not in a.free_symbols and not nested(a)}, key=sp.default_sort_key)
+
+    atoms = plain(exprs)
     whole = [a for a in atoms if z not in a.free_symbols]
     if whole:
         more, vals = spline_calls(whole, "hz", printer)
         lines += more
         for a, v in zip(whole, vals):
             em.scopes[-1][("atom", a)] = v
-    for at in atoms:
-        if z not in at.free_symbols:
+    members = [(at, _moving(at, {z})) for at in atoms if z in at.free_symbols]
+    if later is not None:
+        exprs_later, u, unknown = later
+        members += [(at, _moving(at, {u}, {z, *unknown})) for at in plain(exprs_later) if u in at.free_symbols]
+    # a group: the moving axis's knot class (one cell test serves the splines of equal knots there)
+    # and argument, the other axes' arguments → its members' atoms
+    groups: dict = {}
+    for at, f in members:
+        if f is not None:
+            rest = tuple(printer.doprint(e_sub(at.args[3 + ax])) for ax in range(3) if ax != f)
+            groups.setdefault((_knot_class(em, at.args[0], f), f, rest), []).append(at)
+    for (_, f, _), ats in groups.items():
+        own: dict = {}  # line key → the first atom with it (the member's orders on the fixed axes)
+        for at in ats:
+            key = _line_key(at, f, printer)
+            if key not in own and em.find(key) is None:
+                own[key] = at
+                for ax in range(3):
+                    if ax != f:
+                        _axis(em, at.args[0], ax, at.degrees[ax], at.args[3 + ax], at.orders[ax], printer, lines)
+        if not own:
             continue
-        ref, k, o = at.args[0], at.degrees, at.orders
-        moving = [ax for ax in range(3) if z in at.args[3 + ax].free_symbols]
-        if len(moving) != 1:
-            continue
-        for ax in range(3):
-            if ax != moving[0]:
-                _axis(em, ref, ax, k[ax], at.args[3 + ax], o[ax], printer, lines)
-        key = _line_key(at, moving[0], printer)
-        if em.find(key) is None:
-            em.count += 1
-            q = f"ln{em.count}"
-            kf = k[moving[0]] + 1
-            lines.append(f"double {q}_L[{kf}], {q}_P[{kf}]; vp_seg_t {q}_s = VP_SEG0;")
-            em.scopes[-1][key] = q
+        em.count += 1
+        q, kf, group = f"ln{em.count}", ats[0].degrees[f] + 1, list(own.values())
+        lines.append(" ".join(f"double {q}_P{j}[{kf}];" for j in range(len(group))) + f" vp_seg_t {q}_s = VP_SEG0;")
+        for j, key in enumerate(own):
+            em.scopes[-1][key] = (q, j, group)
     return lines
+
+
+def _moving(at: SplineAt, zs: set, unknown: set = frozenset()) -> int | None:
+    """The one axis whose argument holds a symbol of ``zs``, the others free of ``zs`` and of
+    ``unknown``; None if there is no such axis."""
+    free = [at.args[3 + ax].free_symbols for ax in range(3)]
+    moving = [ax for ax in range(3) if free[ax] & zs]
+    if len(moving) != 1 or any(free[ax] & (zs | unknown) for ax in range(3) if ax != moving[0]):
+        return None
+    return moving[0]
 
 
 def _line_key(at: SplineAt, f: int, printer: Any) -> tuple:
@@ -245,6 +278,7 @@ def spline_calls(exprs: list[Any], tag: str, printer: Any) -> tuple[list[str], l
     groups: dict = {}
     lines: list[str] = []
     rep: dict = {}
+    segs: dict = {}  # line group → (the moving axis's argument, y there): its last vp_seg here
     for a in atoms:
         if any(arg.atoms(SplineAt) for arg in a.args[3:]):
             raise ValueError("a spline evaluated at a spline is not generated natively")
@@ -255,23 +289,34 @@ def spline_calls(exprs: list[Any], tag: str, printer: Any) -> tuple[list[str], l
         lined = [f for f in range(3) if em.find(_line_key(a, f, printer)) is not None]
         if lined:  # contracted over the fixed axes once per cell of the moving one
             f = lined[0]
-            q = em.find(_line_key(a, f, printer))
+            q, j, group = em.find(_line_key(a, f, printer))
             k, o = a.degrees, a.orders
-            ax = {b: _axis(em, a.args[0], b, k[b], a.args[3 + b], o[b], printer, lines)
-                  for b in range(3) if b != f}
-            fixed = [ax[b][1] for b in range(3) if b != f]
-            idx = ", ".join(f"{q}_s.i" if b == f else ax[b][0] for b in range(3))
-            h = f"fd + {HS * em.slot(a.args[0])}"
+            arg = printer.doprint(e_sub(a.args[3 + f]))
+            y = segs.get(q)
+            if y is None or y[0] != arg:  # the cell of this argument: one test per group and point
+                em.count += 1
+                y = segs[q] = (arg, f"{tag}_y{em.count}")
+                # on entering a cell: every member's line there, one pass over each spline's block
+                # (at most VP_LINES lines a call), with its polynomial in y
+                fill, per = [], {}
+                for jj, m in enumerate(group):
+                    ax = {b: _axis(em, m.args[0], b, m.degrees[b], m.args[3 + b], m.orders[b], printer, lines)
+                          for b in range(3) if b != f}
+                    cells = ", ".join(f"{q}_s.i" if b == f else ax[b][0] for b in range(3))
+                    per.setdefault((m.args[0], cells), []).append(
+                        f"{', '.join(ax[b][1] for b in sorted(ax))}, {q}_P{jj}")
+                for (ref, cells), args in per.items():
+                    hr = f"fd + {HS * em.slot(ref)}"
+                    for j0 in range(0, len(args), _VP_LINES):
+                        chunk = args[j0:j0 + _VP_LINES]
+                        line = _specialised(em, "vp_lines", (*ref.obj.degrees, f, len(chunk)))
+                        fill.append(f"{line}(fd, {hr}, {cells}, {', '.join(chunk)});")
+                h = f"fd + {HS * em.slot(group[0].args[0])}"
+                lines.append(f"double {y[1]}; if (vp_seg(fd, {h}, {f}, {k[f]}, {arg}, &{q}_s, "
+                             f"&{y[1]})) {{ {' '.join(fill)} }}")
             em.count += 1
             v = sp.Symbol(f"{tag}_l{em.count}")
-            # the moving axis's cell, kept while the argument stays in it; on entering a cell, the
-            # line there and its polynomial in y (vp_seg, vp_lpoly); then Horner for d^o/dy^o
-            line = _specialised(em, "vp_line", (*k, f))
-            lines += [(f"double {v}_y; if (vp_seg(fd, {h}, {f}, {k[f]}, "
-                       f"{printer.doprint(e_sub(a.args[3 + f]))}, &{q}_s, &{v}_y)) {{ "
-                       f"{line}(fd, {h}, {idx}, {fixed[0]}, {fixed[1]}, "
-                       f"{q}_L); vp_lpoly(fd, {h}, {f}, {k[f]}, {q}_s.i, {q}_L, {q}_P); }}"),
-                      f"double {v} = vp_pn({k[f]}, {o[f]}, {q}_P, {v}_y);"]
+            lines.append(f"double {v} = vp_pn({k[f]}, {o[f]}, {q}_P{j}, {y[1]});")
             rep[a] = v
             continue
         groups.setdefault((a.args[0], a.args[3:]), []).append(a)
@@ -283,17 +328,21 @@ def spline_calls(exprs: list[Any], tag: str, printer: Any) -> tuple[list[str], l
         ax = [{n: _axis(em, ref, a, k[a], args[a], n, printer, lines)
                for n in sorted({m.orders[a] for m in members})} for a in range(3)]
         idx = ", ".join(ax[a][next(iter(ax[a]))][0] for a in range(3))
-        c0 = _specialised(em, "vp_c0", tuple(k))
-        for o0 in sorted({m.orders[0] for m in members}):
-            lines.append(f"double {p}_b{o0}[{(k[1] + 1) * (k[2] + 1)}]; {c0}(fd, {h}, {idx}, "
-                         f"{ax[0][o0][1]}, {p}_b{o0});")
-        for o0, o1 in sorted({tuple(m.orders[:2]) for m in members}):
-            lines.append(f"double {p}_b{o0}{o1}[{k[2] + 1}]; vp_c1({k[1]}, {k[2]}, {ax[1][o1][1]}, "
+        # first over the axis with the fewest orders among the members (one pass over the block
+        # where they all share one), then over the other two in axis order
+        a0 = min(range(3), key=lambda a: len(ax[a]))
+        a1, a2 = (a for a in range(3) if a != a0)
+        c0 = _specialised(em, "vp_c0", (*k, a0))
+        for o0 in sorted({m.orders[a0] for m in members}):
+            lines.append(f"double {p}_b{o0}[{(k[a1] + 1) * (k[a2] + 1)}]; {c0}(fd, {h}, {idx}, "
+                         f"{ax[a0][o0][1]}, {p}_b{o0});")
+        for o0, o1 in sorted({(m.orders[a0], m.orders[a1]) for m in members}):
+            lines.append(f"double {p}_b{o0}{o1}[{k[a2] + 1}]; vp_c1({k[a1]}, {k[a2]}, {ax[a1][o1][1]}, "
                          f"{p}_b{o0}, {p}_b{o0}{o1});")
         for j, m in enumerate(members):
             o = m.orders
             v = sp.Symbol(f"{p}_v{j}")
-            lines.append(f"double {v} = vp_c2({k[2]}, {ax[2][o[2]][1]}, {p}_b{o[0]}{o[1]});")
+            lines.append(f"double {v} = vp_c2({k[a2]}, {ax[a2][o[a2]][1]}, {p}_b{o[a0]}{o[a1]});")
             rep[m] = v
     return lines, [e.xreplace(rep) for e in exprs]
 
@@ -301,25 +350,35 @@ def spline_calls(exprs: list[Any], tag: str, printer: Any) -> tuple[list[str], l
 
 #: the contractions over a cell's coefficient block, specialised to constant degrees (and axis)
 _SPECIALISED = {
-    "vp_line": ("static _VP_STAGE void {name}(const double *fd, const double *h, int64_t i0, int64_t i1, "
-                "int64_t i2, const double *Na, const double *Nb, double *L) {{\n"
-                "    vp_line(fd, h, {0}, {1}, {2}, i0, i1, i2, {3}, Na, Nb, L);\n}}\n"),
     "vp_c0": ("static _VP_STAGE void {name}(const double *fd, const double *h, int64_t i0, int64_t i1, "
-              "int64_t i2, const double *N0, double *P) {{\n"
-              "    vp_c0(fd, h, {0}, {1}, {2}, i0, i1, i2, N0, P);\n}}\n"),
+              "int64_t i2, const double *N, double *P) {{\n"
+              "    vp_c0(fd, h, {0}, {1}, {2}, i0, i1, i2, {3}, N, P);\n}}\n"),
 }
 
 
+def _lines_c(name: str, k0: int, k1: int, k2: int, f: int, n: int) -> str:
+    """C of ``vp_lines`` for constant degrees, moving axis f and n lines: (Na, Nb, L) per line."""
+    args = ", ".join(f"const double *Na{j}, const double *Nb{j}, double *P{j}" for j in range(n))
+    arr = lambda v: ", ".join(f"{v}{j}" for j in range(n))  # noqa: E731
+    return (f"static _VP_STAGE void {name}(const double *fd, const double *h, int64_t i0, int64_t i1, "
+            f"int64_t i2, {args}) {{\n"
+            f"    const double *Na[{n}] = {{{arr('Na')}}}, *Nb[{n}] = {{{arr('Nb')}}}; "
+            f"double *P[{n}] = {{{arr('P')}}};\n"
+            f"    vp_lines(fd, h, {k0}, {k1}, {k2}, i0, i1, i2, {f}, {n}, Na, Nb, P);\n}}\n")
+
+
 def _specialised(em: Any, fn: str, consts: tuple) -> str:
-    """The name of ``vp_line`` / ``vp_c0`` for the constant degrees (and moving axis) ``consts``:
-    one function per kernel with its loops unrolled (``_VP_STAGE``: compiled once and called, as the
-    stages of a kernel without a vectorised pass — every spline kernel). Inlined at each of a
-    stage's ~50 evaluations, these unrolled blocks were half of gcc's time; called, the step costs
-    a few per cent more (issue #41, benchmarks/native/bench_compile.py)."""
+    """The name of ``vp_lines`` (consts: degrees, moving axis, number of lines) / ``vp_c0``
+    (degrees, contracted axis) for constant ``consts``: one function per kernel with its loops unrolled
+    (``_VP_STAGE``: compiled once and called, as the stages of a kernel without a vectorised pass —
+    every spline kernel). Inlined at each of a stage's ~50 evaluations, these unrolled blocks were
+    half of gcc's time; called, the step costs a few per cent more (issue #41,
+    benchmarks/native/bench_compile.py)."""
     key = ("splines", fn, tuple(int(c) for c in consts))
     if key not in em.helpers:
-        name = f"{fn}_{''.join(str(c) for c in key[2])}"
-        em.helpers[key] = (name, _SPECIALISED[fn].format(*key[2], name=name))
+        name = f"{fn}_{''.join(str(c) for c in key[2][:4])}" + (f"_{key[2][4]}" if fn == "vp_lines" else "")
+        code = _lines_c(name, *key[2]) if fn == "vp_lines" else _SPECIALISED[fn].format(*key[2], name=name)
+        em.helpers[key] = (name, code)
     return em.helpers[key][0]
 
 
@@ -399,46 +458,78 @@ static inline _VP_INLINE void vp_basis(const double *fd, const double *h, int a,
     for (int r = 0; r <= k; r++) N[r] = vp_pn(k, n, P + r * (k + 1), y);
 }
 
-/* the coefficient block c[i0-k0+a, i1-k1+b, i2-k2+c] contracted over axis 0 with N0: P[b, c] */
+/* the coefficient block c[i0-k0+u, i1-k1+v, i2-k2+w] contracted over axis a with N: P over the
+   other two axes in axis order (a = 0: P[v, w]; 1: P[u, w]; 2: P[u, v]) */
 static inline _VP_INLINE void vp_c0(const double *fd, const double *h, int k0, int k1, int k2,
-                                    int64_t i0, int64_t i1, int64_t i2, const double *N0, double *P) {
+                                    int64_t i0, int64_t i1, int64_t i2, int a, const double *N,
+                                    double *P) {
     const double *c = fd + (int64_t)h[6];
     int64_t m1 = (int64_t)h[8], m2 = (int64_t)h[9];
     const double *b = c + ((i0 - k0) * m1 + (i1 - k1)) * m2 + (i2 - k2);
-    for (int j = 0; j < (k1 + 1) * (k2 + 1); j++) P[j] = 0.0;
-    for (int x = 0; x <= k0; x++)  /* innermost along the contiguous axis 2 */
-        for (int y = 0; y <= k1; y++)
-            for (int z = 0; z <= k2; z++) P[y * (k2 + 1) + z] += N0[x] * b[(x * m1 + y) * m2 + z];
-}
-
-/* the block contracted over every axis but f (Na, Nb: the bases of the other two, in axis order):
-   the k_f + 1 coefficients of the cell along axis f; the innermost loop runs along the
-   contiguous axis 2 */
-static inline _VP_INLINE void vp_line(const double *fd, const double *h, int k0, int k1, int k2,
-                                      int64_t i0, int64_t i1, int64_t i2, int f, const double *Na,
-                                      const double *Nb, double *L) {
-    const double *c = fd + (int64_t)h[6];
-    int64_t m1 = (int64_t)h[8], m2 = (int64_t)h[9];
-    const double *b = c + ((i0 - k0) * m1 + (i1 - k1)) * m2 + (i2 - k2);
-    if (f == 2) {
-        for (int z = 0; z <= k2; z++) L[z] = 0.0;
+    if (a == 0) {
+        for (int j = 0; j < (k1 + 1) * (k2 + 1); j++) P[j] = 0.0;
+        for (int x = 0; x <= k0; x++)  /* innermost along the contiguous axis 2 */
+            for (int y = 0; y <= k1; y++)
+                for (int z = 0; z <= k2; z++) P[y * (k2 + 1) + z] += N[x] * b[(x * m1 + y) * m2 + z];
+    } else if (a == 1) {
+        for (int j = 0; j < (k0 + 1) * (k2 + 1); j++) P[j] = 0.0;
         for (int x = 0; x <= k0; x++)
-            for (int y = 0; y <= k1; y++) {
-                double w = Na[x] * Nb[y];
-                const double *r = b + (x * m1 + y) * m2;
-                for (int z = 0; z <= k2; z++) L[z] += w * r[z];
-            }
+            for (int y = 0; y <= k1; y++)
+                for (int z = 0; z <= k2; z++) P[x * (k2 + 1) + z] += N[y] * b[(x * m1 + y) * m2 + z];
     } else {
-        int kf = f == 0 ? k0 : k1;
-        for (int j = 0; j <= kf; j++) L[j] = 0.0;
         for (int x = 0; x <= k0; x++)
             for (int y = 0; y <= k1; y++) {
-                const double *r = b + (x * m1 + y) * m2;
                 double s = 0.0;
-                for (int z = 0; z <= k2; z++) s += Nb[z] * r[z];
-                L[f == 0 ? x : y] += (f == 0 ? Na[y] : Na[x]) * s;
+                for (int z = 0; z <= k2; z++) s += N[z] * b[(x * m1 + y) * m2 + z];
+                P[x * (k1 + 1) + y] = s;
             }
     }
+}
+
+/* a line's polynomial in y in cell i of axis a: c[p] = sum_r L[r] P[i - k, r, p] (the cell's
+   B-spline polynomials weighted by the line's coefficients) */
+static inline _VP_INLINE void vp_lpoly(const double *fd, const double *h, int a, int k, int64_t i,
+                                       const double *L, double *c) {
+    const double *P = fd + (int64_t)h[3 + a] + (i - k) * (k + 1) * (k + 1);
+    for (int p = 0; p <= k; p++) {
+        double s = 0.0;
+        for (int r = 0; r <= k; r++) s += L[r] * P[r * (k + 1) + p];
+        c[p] = s;
+    }
+}
+
+/* the block contracted over every axis but f, for n lines of it at once (line j: Na[j], Nb[j],
+   the bases of the other two axes in axis order), in one pass over the block: the k_f + 1
+   coefficients of line j in the cell along axis f, then its polynomial in y there, P[j] (as
+   vp_lpoly); the innermost loop runs along the contiguous axis 2 (n <= VP_LINES, degrees <= 9) */
+#define VP_LINES 8
+static inline _VP_INLINE void vp_lines(const double *fd, const double *h, int k0, int k1, int k2,
+                                       int64_t i0, int64_t i1, int64_t i2, int f, int n,
+                                       const double *const *Na, const double *const *Nb,
+                                       double *const *P) {
+    const double *c = fd + (int64_t)h[6];
+    int64_t m1 = (int64_t)h[8], m2 = (int64_t)h[9];
+    const double *b = c + ((i0 - k0) * m1 + (i1 - k1)) * m2 + (i2 - k2);
+    int kf = f == 0 ? k0 : f == 1 ? k1 : k2;
+    double acc[VP_LINES][10];  /* the sums, local: no store to L can alias the block */
+    for (int j = 0; j < n; j++)
+        for (int p = 0; p <= kf; p++) acc[j][p] = 0.0;
+    for (int x = 0; x <= k0; x++)
+        for (int y = 0; y <= k1; y++) {
+            const double *r = b + (x * m1 + y) * m2;
+            for (int j = 0; j < n; j++) {
+                if (f == 2) {
+                    double w = Na[j][x] * Nb[j][y];
+                    for (int z = 0; z <= k2; z++) acc[j][z] += w * r[z];
+                } else {
+                    double s = 0.0;
+                    for (int z = 0; z <= k2; z++) s += Nb[j][z] * r[z];
+                    acc[j][f == 0 ? x : y] += (f == 0 ? Na[j][y] : Na[j][x]) * s;
+                }
+            }
+        }
+    int64_t i = f == 0 ? i0 : f == 1 ? i1 : i2;
+    for (int j = 0; j < n; j++) vp_lpoly(fd, h, f, kf, i, acc[j], P[j]);
 }
 
 /* the cell of z on axis a, kept by a hoisted line (hoist) while z (wrapped, vp_wrap) stays in
@@ -454,18 +545,6 @@ static inline _VP_INLINE int vp_seg(const double *fd, const double *h, int a, in
     s->i = vp_cell(fd, h, a, k, z, y);
     s->lo = t[s->i]; s->hi = t[s->i + 1];
     return 1;
-}
-
-/* a line's polynomial in y in cell i of axis a: c[p] = sum_r L[r] P[i - k, r, p] (the cell's
-   B-spline polynomials weighted by the line's coefficients) */
-static inline _VP_INLINE void vp_lpoly(const double *fd, const double *h, int a, int k, int64_t i,
-                                       const double *L, double *c) {
-    const double *P = fd + (int64_t)h[3 + a] + (i - k) * (k + 1) * (k + 1);
-    for (int p = 0; p <= k; p++) {
-        double s = 0.0;
-        for (int r = 0; r <= k; r++) s += L[r] * P[r * (k + 1) + p];
-        c[p] = s;
-    }
 }
 
 /* then over axis 1 with N1: V[c] */
