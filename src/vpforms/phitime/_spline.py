@@ -216,9 +216,10 @@ def _batched(coords: PhiTimeCoordinates, name: str, make):
 
 
 def _in_blocks(fn, y: np.ndarray, chunk: int = _BLOCK) -> np.ndarray:
-    """fn(y block) for y (n, 3) in blocks of min(chunk, _BLOCK, the power of two ≥ n) rows, the
-    last one padded: a few shapes (1000 check points run as 1024, grids as 8192), never one per grid."""
-    B = max(1, min(int(chunk), _BLOCK, 1 << max(0, int(y.shape[0]) - 1).bit_length()))
+    """fn(y block) for y (n, 3) in blocks of min(chunk, _BLOCK, the power of two ≥ max(n, 1024))
+    rows, the last one padded: a few shapes (check points run as 1024, grids as 8192), never one
+    per grid."""
+    B = max(1, min(int(chunk), _BLOCK, max(1024, 1 << max(0, int(y.shape[0]) - 1).bit_length())))
     out = []
     for i in range(0, y.shape[0], B):
         q = y[i:i + B]
