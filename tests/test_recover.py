@@ -65,6 +65,25 @@ def test_integrate_with_recovery_freezes_fewer_and_is_chunk_independent(abc):
     assert "recovered steps" in a.summary()
 
 
+def test_a_recovering_method_pickles_before_and_after_its_alternatives_are_built(abc):
+    """Recovering builds its alternatives on first use, under a lock (one build when threads share
+    it); the lock does not pickle, so the method drops it and makes a fresh one on arrival: a
+    pickled method (what Dask ships), lazy or built, steps and recovers as the original does."""
+    cloudpickle = pytest.importorskip("cloudpickle")
+    f, bare, rec, x = abc
+    m = vpforms.scheme(f, "DL+DL", fast=False)
+    lazy = cloudpickle.loads(cloudpickle.dumps(m))
+    assert m._built is None and lazy._built is None
+    X0, s0 = m.step_with_status(x, 0.5)  # DL+DL's engine form fails here: the steps recover
+    assert m._built is not None
+    built = cloudpickle.loads(cloudpickle.dumps(m))
+    assert built._built is not None and len(built.alternatives) == len(m.alternatives)
+    for again in (lazy, built):
+        X1, s1 = again.step_with_status(x, 0.5)
+        np.testing.assert_array_equal(np.asarray(X1), np.asarray(X0))
+        np.testing.assert_array_equal(np.asarray(s1), np.asarray(s0))
+
+
 def test_without_recovery_is_the_same_object_every_time(abc):
     """integrate keys its compiled kernel by the bare method's identity: a new stripped object per
     call would recompile the whole run every time (a composition of a recovering scheme did)."""

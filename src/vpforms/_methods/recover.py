@@ -162,6 +162,13 @@ class Recovering(Method):
         self.name = bare.name
         self.guess_is_solution = getattr(bare, "guess_is_solution", False)
 
+    def __getstate__(self):  # a lock does not pickle (Dask ships methods): a fresh one on arrival
+        return {k: v for k, v in self.__dict__.items() if k != "_lock"}
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
+        self._lock = threading.Lock()
+
     def _alternatives_and_refused(self) -> tuple:
         with self._lock:  # one build, also when Dask worker threads share the method
             if self._built is None:
