@@ -167,15 +167,16 @@ def test_bench_native_splines_smoke(tmp_path):
 
 @pytest.mark.skipif(not _NATIVE_OK, reason=f"native backend unavailable: {_NATIVE_WHY}")
 def test_bench_spline_floor_smoke(tmp_path, monkeypatch):
-    """The floor reads the blocks the generated SE+SE step reads (parsed from its C: the guard's
-    three components of A at x, three splines in each of the two solves)."""
+    """The floor reads the blocks the generated SE+SE step reads (parsed from its C: the three
+    components of A at x for a(x) — the guard's and the first guess's, read once — and the splines
+    of each of the two solves)."""
     monkeypatch.setenv("VPFORMS_NATIVE_CACHE", str(tmp_path / "cache"))
     text = _smoke("bench_spline_floor", tmp_path)
     assert _row_labels(text) == ["tokamak (closed form), native step", "tokamak (spline of A), native step",
                                  "floor: the step's spline reads, nothing else",
                                  "floor with per-cell monomial tables"]
-    m = re.search(r"the (\d+) \(spline, point\) blocks .*? (\d+) at x for the guard's B\(x\), "
-                  r"(\d+) in solve 1, (\d+) in solve 2", text)
+    m = re.search(r"the (\d+) \(spline, point\) blocks .*? (\d+) at x for a\(x\) \(the guard's B\(x\), "
+                  r"also the first guess\), (\d+) in solve 1, (\d+) in solve 2", text)
     total, guard, s1, s2 = map(int, m.groups())
     # B = ∇×A at x needs every component of A; each implicit solve reads at least one spline
     assert guard == 3 and s1 >= 1 and s2 >= 1 and total == guard + s1 + s2

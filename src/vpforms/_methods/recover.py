@@ -172,7 +172,10 @@ class Recovering(Method):
     def _alternatives_and_refused(self) -> tuple:
         with self._lock:  # one build, also when Dask worker threads share the method
             if self._built is None:
-                alts, refused = self._source()
+                # first used inside a trace (a jitted recovering step): the methods are built
+                # eagerly all the same — their constants must not be tracers of that trace
+                with jax.ensure_compile_time_eval():
+                    alts, refused = self._source()
                 self._built = (tuple(alts), tuple(refused))
         return self._built
 
