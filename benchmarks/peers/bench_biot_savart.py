@@ -1,5 +1,6 @@
-"""B of the W7-X coils at many points: simsopt's C++ ``BiotSavart`` against vpforms' ``CoilSet.B`` (JAX),
-in one process, one thread, written to results_biot_savart.md beside this script (issue #38).
+"""B of the W7-X coils at many points: simsopt's C++ ``BiotSavart`` against vpforms' native evaluator
+(``CoilSet.evaluate``, generated C) and its JAX ``CoilSet.B``, in one process, one thread, written to
+results_biot_savart.md beside this script (issue #38 item 2: native within 2× of simsopt per pair).
 
 Run it in simsopt's venv with vpforms installed there too, pinned to one core:
 
@@ -12,11 +13,11 @@ base curves and currents of ``get_data("w7x")``, 96 quadrature points each; vpfo
 ``device("w7x")``, the polylines through the same 96 points, 4 800 segments). The points: N seeded
 points within 0.3 m of the axis. Cost = best of R timed calls / (N × 4 800) — ns per point-segment
 pair (simsopt's B alone: ``set_points`` then ``B()``; vpforms: one jitted call on chunks of 500
-points, compile apart). Their largest relative difference is printed too (the polyline's O(1/n²)).
-
-vpforms' native backend has no stand-alone B evaluator: its coil code (``CoilA`` of
-``backends/native/codegen/coils.py``) is A and its derivatives inside the generated stepping
-kernels, measured per particle-step by ``benchmarks/native/bench_native_coils.py``; it is not in this table.
+points, compile apart; vpforms native: ``CoilSet.evaluate(x, "B"|"A", backend="native")``, the C
+compiled before timing). Their largest relative difference is printed too (the polyline's O(1/n²)).
+simsopt's cost per pair is per quadrature point of its curves (a point-source sum), vpforms' per
+straight segment (Hanson–Hirshman's closed form: two square roots and three divisions; A adds a
+logarithm): the table gives both per pair and per point, same number of pairs.
 """
 
 from __future__ import annotations
@@ -77,6 +78,12 @@ def main() -> None:
 
     t_simsopt, B_simsopt = best(simsopt_B, args.rounds)
 
+    def simsopt_A():
+        bs.set_points(x)
+        return np.array(bs.A())
+
+    t_simsopt_A, _ = best(simsopt_A, args.rounds)
+
     coils = device("w7x")
     n_seg = int(coils.segments()[0].shape[0])
     B_jit = jax.jit(coils.B)
@@ -90,11 +97,17 @@ def main() -> None:
     t_first = time.perf_counter() - t
     t_vpforms, B_vpforms = best(vpforms_B, args.rounds)
     diff = float(np.max(np.linalg.norm(B_vpforms - B_simsopt, axis=1)) / np.max(np.linalg.norm(B_simsopt, axis=1)))
+    coils.evaluate(x[:10], "B", backend="native")  # the C compiled (or loaded from the cache) before timing
+    t_native, B_native = best(lambda: coils.evaluate(x, "B", backend="native"), args.rounds)
+    t_native_A, _ = best(lambda: coils.evaluate(x, "A", backend="native"), args.rounds)
+    diff_native = float(np.max(np.abs(B_native - B_vpforms)) / np.max(np.abs(B_vpforms)))
 
     pairs = args.points * n_seg
     ns_s, ns_v = 1e9 * t_simsopt / (args.points * n_seg_simsopt), 1e9 * t_vpforms / pairs
+    ns_n, ns_nA = 1e9 * t_native / pairs, 1e9 * t_native_A / pairs
+    ns_sA = 1e9 * t_simsopt_A / (args.points * n_seg_simsopt)
     lines = [
-        "# B of the W7-X coils: simsopt BiotSavart vs vpforms CoilSet.B",
+        "# B and A of the W7-X coils: simsopt BiotSavart vs vpforms (native and JAX)",
         "",
         f"`benchmarks/peers/bench_biot_savart.py --points {args.points} --rounds {args.rounds}`, one process, "
         f"OMP_NUM_THREADS={os.environ.get('OMP_NUM_THREADS', 'unset')}, "
@@ -108,15 +121,20 @@ def main() -> None:
         "|---|---|---|---|",
         f"| simsopt `BiotSavart` (C++, `set_points` + `B()`) | {t_simsopt:.3f} | {ns_s:.2f} | "
         f"{1e6 * t_simsopt / args.points:.1f} |",
+        f"| simsopt `BiotSavart` (C++, `set_points` + `A()`) | {t_simsopt_A:.3f} | {ns_sA:.2f} | "
+        f"{1e6 * t_simsopt_A / args.points:.1f} |",
+        f"| vpforms `CoilSet.evaluate(x, \"B\")` (native C, OpenMP) | {t_native:.3f} | {ns_n:.2f} | "
+        f"{1e6 * t_native / args.points:.1f} |",
+        f"| vpforms `CoilSet.evaluate(x, \"A\")` (native C, OpenMP) | {t_native_A:.3f} | {ns_nA:.2f} | "
+        f"{1e6 * t_native_A / args.points:.1f} |",
         f"| vpforms `CoilSet.B` (JAX, jit, chunks of {CHUNK} points) | {t_vpforms:.3f} | {ns_v:.2f} | "
         f"{1e6 * t_vpforms / args.points:.1f} |",
         "",
-        f"vpforms / simsopt: {t_vpforms / t_simsopt:.1f}x; vpforms' first call (compile included) "
-        f"{t_first:.2f} s. max |B_vpforms − B_simsopt| / max |B| = {diff:.1e} (the polyline's O(1/n²) at 96 "
-        "points per coil; tests/test_devices.py).",
-        "",
-        "vpforms' native backend has no stand-alone B evaluator (its coil code is A and its derivatives "
-        "inside the stepping kernels; `benchmarks/native/bench_native_coils.py`), so it is not in this table.",
+        f"Per pair, vpforms native B / simsopt: **{ns_n / ns_s:.2f}×** (A against simsopt's A: {ns_nA / ns_sA:.2f}×); per point "
+        f"{t_native / t_simsopt:.2f}×. vpforms JAX / simsopt: {t_vpforms / t_simsopt:.1f}× per point; its first "
+        f"call (compile included) {t_first:.2f} s. max |B_native − B_JAX| / max |B| = {diff_native:.1e}; "
+        f"max |B_vpforms − B_simsopt| / max |B| = {diff:.1e} (the polyline's O(1/n²) at 96 points per coil; "
+        "tests/test_devices.py).",
     ]
     OUT.write_text("\n".join(lines) + "\n")
     print("\n".join(lines))

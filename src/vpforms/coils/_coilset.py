@@ -205,6 +205,37 @@ class CoilSet:
         """A (T·m, ∇×A = B) at x (m) of shape (3,) or (N, 3), the same shape."""
         return segments_A(_points(x), *self._segments)
 
+    def evaluate(self, x: Any, what: str = "B", *, backend: str = "auto") -> np.ndarray:
+        """B (``what="B"``, T) or A (``"A"``, T·m) at many points x (m) of shape (3,) or (N, 3), the
+        same shape, as a NumPy array: the host-side evaluator of grids, checks and references.
+
+        ``backend="native"`` (the default ``"auto"`` where a C compiler and cffi are found): the
+        generated C of :mod:`vpforms.backends.native.biot_savart` — the same segment formulas,
+        OpenMP over the points, nothing stored per point-segment pair (memory O(N + S) for any
+        number of segments; ~2 ns per pair for B, ~3.5 ns for A on one core:
+        ``benchmarks/peers/results_biot_savart.md``). ``"jax"``: :meth:`B` / :meth:`A` (compiled
+        per shape of ``x``). Both equal to rounding (tests/test_biot_savart_native.py)."""
+        if what not in ("A", "B"):
+            raise ValueError(f"what must be 'A' or 'B'; got {what!r}")
+        if backend not in ("auto", "native", "jax"):
+            raise ValueError(f"backend must be 'auto', 'native' or 'jax'; got {backend!r}")
+        pts = np.asarray(x, dtype=np.float64)
+        if pts.ndim not in (1, 2) or pts.shape[-1] != 3:
+            raise ValueError(f"points must have shape (3,) or (N, 3); got {pts.shape}")
+        if not np.all(np.isfinite(pts)):
+            raise ValueError("points must be finite")
+        if backend != "jax":
+            # imported here: the native backend's code generator imports this module
+            from ..backends.native import available
+            from ..backends.native.biot_savart import evaluate
+
+            ok, why = available()
+            if ok:
+                return evaluate(self, pts, what).reshape(pts.shape)
+            if backend == "native":
+                raise RuntimeError(f"the native Biot–Savart evaluator is not available here: {why}")
+        return np.asarray((self.A if what == "A" else self.B)(pts))
+
     def potential(self) -> CoilPotential:
         """A as a :class:`CoilPotential` (Cartesian): ``Field.from_vector_potential(coils.potential(),
         box)`` traces the coils directly; :func:`vpforms.toroidal.toroidal_field` (coils, box) in

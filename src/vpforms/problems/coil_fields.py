@@ -49,6 +49,14 @@ SOURCE = ("vacuum field of filamentary coils (Hanson & Hirshman, Phys. Plasmas 9
           "A splined on a grid, B = curl A; coil sets built in vpforms.coils.library")
 
 
+def _coil_values(coils, xyz, what) -> np.ndarray:
+    """A or B of ``coils`` at the points xyz (N, 3) as NumPy: natively for a :class:`CoilSet`
+    (:meth:`~vpforms.coils.CoilSet.evaluate`), else its JAX ``A``/``B`` (quadrature coils)."""
+    if isinstance(coils, CoilSet):
+        return coils.evaluate(xyz, what)
+    return np.asarray(coils.A(xyz) if what == "A" else coils.B(xyz))
+
+
 def _sample_A(coils, R, phi, Z, mask=None) -> np.ndarray:
     """Physical cylindrical (A_R, A_φ, A_Z) of the coils at the grid nodes, shape (3, nR, nφ, nZ);
     where ``mask`` is given, at its kept nodes only (NaN elsewhere)."""
@@ -56,7 +64,7 @@ def _sample_A(coils, R, phi, Z, mask=None) -> np.ndarray:
     keep = np.ones(RR.shape, bool) if mask is None else np.asarray(mask, bool)
     xyz = np.stack([RR[keep] * np.cos(PP[keep]), RR[keep] * np.sin(PP[keep]), ZZ[keep]], axis=-1)
     A = np.full(RR.shape + (3,), np.nan)
-    A[keep] = np.asarray(coils.A(xyz))
+    A[keep] = _coil_values(coils, xyz, "A")
     c, s = np.cos(PP), np.sin(PP)
     return np.stack([A[..., 0] * c + A[..., 1] * s, -A[..., 0] * s + A[..., 1] * c, A[..., 2]])
 
@@ -72,7 +80,7 @@ def _spline_error(field, coils, extra_B, box_R, box_Z, nfp, seed=0, n=400, domai
         pts = domain.sample(n, seed)
     xyz = pts[:, [0, 1, 2]].copy()
     xyz[:, 0], xyz[:, 1] = pts[:, 0] * np.cos(pts[:, 1]), pts[:, 0] * np.sin(pts[:, 1])
-    B = np.asarray(coils.B(xyz)) + (0 if extra_B is None else extra_B(xyz))
+    B = _coil_values(coils, xyz, "B") + (0 if extra_B is None else extra_B(xyz))
     p = to_toroidal(xyz)
     return float(np.max(np.abs(np.asarray(cartesian_field(field(p), p)) - B)) / np.max(np.abs(B)))
 

@@ -168,10 +168,9 @@ def _below(alphas) -> list[tuple[int, int, int]]:
 _NAME = "VP_COILS_HELPER"
 
 
-@lru_cache(maxsize=64)
-def _segment_helper(alphas: tuple[tuple[int, int, int], ...]) -> str:
-    """The C helper (named ``_NAME``)(fd, h, p₁, p₂, p₃, out): out[k·|α| + j] = Σ_s ê_{s,k} ∂^{α_j} f_s
-    at p (module docstring), generated from SymPy."""
+def _segment_geometry() -> tuple[dict, tuple, tuple, Any, Any]:
+    """One segment's symbols at the point p: (data symbols by name (:data:`_SEG`), ê × (x − x_i),
+    the two cancellation-free differences as (ρ²/(R + s), R − s, s) with s = t, u, R_i, R_f)."""
     S = {n: sp.Symbol(f"vc_{n}", real=True) for n in _SEG}
     xi, xf, e = ([S[f"{p}{j}"] for j in range(3)] for p in ("xi", "xf", "e"))
     d = [_P[j] - xi[j] for j in range(3)]  # x − x_i
@@ -185,6 +184,31 @@ def _segment_helper(alphas: tuple[tuple[int, int, int], ...]) -> str:
     tv, uv = sp.Symbol("vc_t", real=True), sp.Symbol("vc_u", real=True)
     # R_i − t, R_f − u without cancellation (ρ²/(R + t) where t > 0), differentiated branch by branch
     branches = ((rho2 / (Ri + t), Ri - t, tv), (rho2 / (Rf + u), Rf - u, uv))
+    return S, cr, branches, (Ri, Rf), (t, u)
+
+
+def _loop(comment: str, name: str, accumulators: list[str], body: list[str], store: str) -> str:
+    """A C helper ``name``(fd, h, p₁, p₂, p₃, out) looping ``body`` over the segments."""
+    loop = "\n        ".join([f"double vc_{nm} = q[{j} * S + s];" for j, nm in enumerate(_SEG)] + body)
+    return f"""/* {comment} */
+static void {name}(const double *fd, const double *h, double vc_p1, double vc_p2, double vc_p3,
+                   double *restrict out) {{
+    const double *q = fd + (int64_t)h[0];
+    int64_t S = (int64_t)h[1];
+    double {", ".join(f"{a} = 0.0" for a in accumulators)};
+    for (int64_t s = 0; s < S; s++) {{
+        {loop}
+    }}
+    {store}
+}}
+"""
+
+
+@lru_cache(maxsize=64)
+def _segment_helper(alphas: tuple[tuple[int, int, int], ...]) -> str:
+    """The C helper (named ``_NAME``)(fd, h, p₁, p₂, p₃, out): out[k·|α| + j] = Σ_s ê_{s,k} ∂^{α_j} f_s
+    at p (module docstring), generated from SymPy."""
+    S, _, branches, _, (t, u) = _segment_geometry()
     need = _below(alphas)
     Dsym = {b: sp.Symbol(f"vc_D{b[0]}{b[1]}{b[2]}", real=True) for b in need}
     D_defs = [sum((sp.Piecewise((_derivative(p, b), s > 0), (_derivative(q, b), True))
@@ -200,29 +224,33 @@ def _segment_helper(alphas: tuple[tuple[int, int, int], ...]) -> str:
     reps, red = sp.cse(D_defs, symbols=sp.numbered_symbols("vc_a"))
     reps2, red2 = sp.cse(fa, symbols=sp.numbered_symbols("vc_b"))
     n = len(alphas)
-    body = [f"double vc_{nm} = q[{j} * S + s];" for j, nm in enumerate(_SEG)]
-    body += [f"double vc_t = {_printer.doprint(t)}, vc_u = {_printer.doprint(u)};"]
+    body = [f"double vc_t = {_printer.doprint(t)}, vc_u = {_printer.doprint(u)};"]
     body += [f"double {v} = {_printer.doprint(ex)};" for v, ex in reps]
     body += [f"double {Dsym[b]} = {_printer.doprint(ex)};" for b, ex in zip(need, red)]
     body += [f"double {v} = {_printer.doprint(ex)};" for v, ex in reps2]
     body += [f"double vc_f{j} = {_printer.doprint(ex)};" for j, ex in enumerate(red2)]
     body += [f"o{k}_{j} += vc_e{k} * vc_f{j};" for k in range(3) for j in range(n)]
-    acc = ", ".join(f"o{k}_{j} = 0.0" for k in range(3) for j in range(n))
-    loop = "\n        ".join(body)
     store = " ".join(f"out[{k * n + j}] = o{k}_{j};" for k in range(3) for j in range(n))
     orders = ", ".join("".join(map(str, a)) for a in alphas)
-    return f"""/* Σ_s ê_s,k ∂^α f_s at p for α in ({orders}), k = 1, 2, 3: Hanson–Hirshman segments */
-static void {_NAME}(const double *fd, const double *h, double vc_p1, double vc_p2, double vc_p3,
-                   double *restrict out) {{
-    const double *q = fd + (int64_t)h[0];
-    int64_t S = (int64_t)h[1];
-    double {acc};
-    for (int64_t s = 0; s < S; s++) {{
-        {loop}
-    }}
-    {store}
-}}
-"""
+    return _loop(f"Σ_s ê_s,k ∂^α f_s at p for α in ({orders}), k = 1, 2, 3: Hanson–Hirshman segments", _NAME,
+                 [f"o{k}_{j}" for k in range(3) for j in range(n)], body, store)
+
+
+@lru_cache(maxsize=1)
+def _segment_B_helper() -> str:
+    """The C helper (named ``_NAME``)(fd, h, p₁, p₂, p₃, out): out = B(p) = Σ_s g_s ê_s × (x − x_i),
+    g_s = (μ0 I/4π) 2L(R_i+R_f)/(R_i R_f (R_i+R_f+L) D_s) — Hanson & Hirshman's closed form (as
+    :func:`vpforms.coils._segments._kernel`), with the same cancellation-free D_s as the A loop; the
+    curl of that loop's A to rounding (tested), at a fraction of the cost of its derivatives."""
+    S, cr, branches, (Ri, Rf), (t, u) = _segment_geometry()
+    D = sum((sp.Piecewise((p, s > 0), (q, True)) for p, q, s in branches), sp.Integer(0))
+    g = S["w"] * 2 * S["L"] * (Ri + Rf) / (Ri * Rf * (Ri + Rf + S["L"]) * D)
+    reps, red = sp.cse([g, *cr], symbols=sp.numbered_symbols("vc_a"))
+    body = [f"double vc_t = {_printer.doprint(t)}, vc_u = {_printer.doprint(u)};"]
+    body += [f"double {v} = {_printer.doprint(ex)};" for v, ex in reps]
+    body += [f"o{k} += ({_printer.doprint(red[0])}) * ({_printer.doprint(red[1 + k])});" for k in range(3)]
+    return _loop("B = Σ_s g_s ê_s × (x − x_i) at p: Hanson–Hirshman segments, closed form", _NAME,
+                 ["o0", "o1", "o2"], body, "out[0] = o0; out[1] = o1; out[2] = o2;")
 
 
 def _libmvec_log1p() -> bool:
