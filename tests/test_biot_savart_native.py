@@ -10,7 +10,7 @@ import pytest
 
 import vpforms as vp
 from vpforms.backends.native.biot_savart import evaluate as native_evaluate
-from vpforms.coils import Coil, CoilSet, l2_stellarator
+from vpforms.coils import Coil, CoilSet, device, l2_stellarator
 from vpforms.coils._segments import segments_AB
 
 _OK, _WHY = vp.native.available()
@@ -110,3 +110,16 @@ def test_bad_input_and_backends(monkeypatch):
     native = coils.evaluate(x, "B")
     monkeypatch.setenv("VPFORMS_NATIVE_DISABLE", "1")
     np.testing.assert_allclose(coils.evaluate(x, "B"), native, rtol=0, atol=1e-14 * np.abs(native).max())
+
+
+@pytest.mark.parametrize("what", ["A", "B"])
+def test_current_elements_native_equal_jax(what):
+    # W7-X by simsopt's own quadrature rule (QuadratureCoils): the element loop against JAX's
+    coils = device("w7x", rule="quadrature")
+    rng = np.random.default_rng(5)
+    phi = rng.uniform(0, 2 * np.pi, 400)
+    R, Z = 5.95 + rng.uniform(-0.4, 0.4, 400), rng.uniform(-0.4, 0.4, 400)
+    x = np.c_[R * np.cos(phi), R * np.sin(phi), Z]
+    got = coils.evaluate(x, what, backend="native")
+    ref = coils.evaluate(x, what, backend="jax")
+    assert np.max(np.abs(got - ref)) <= 1e-13 * np.max(np.abs(ref))

@@ -101,11 +101,19 @@ def main() -> None:
     t_native, B_native = best(lambda: coils.evaluate(x, "B", backend="native"), args.rounds)
     t_native_A, _ = best(lambda: coils.evaluate(x, "A", backend="native"), args.rounds)
     diff_native = float(np.max(np.abs(B_native - B_vpforms)) / np.max(np.abs(B_vpforms)))
+    # simsopt's own rule (current elements at its quadrature points): the same pairs, term by term
+    quad = device("w7x", rule="quadrature")
+    n_el = int(quad.elements()[0].shape[0])
+    quad.evaluate(x[:10], "B", backend="native")
+    t_el, B_el = best(lambda: quad.evaluate(x, "B", backend="native"), args.rounds)
+    t_el_A, _ = best(lambda: quad.evaluate(x, "A", backend="native"), args.rounds)
+    diff_el = float(np.max(np.abs(B_el - B_simsopt)) / np.max(np.abs(B_simsopt)))
 
     pairs = args.points * n_seg
     ns_s, ns_v = 1e9 * t_simsopt / (args.points * n_seg_simsopt), 1e9 * t_vpforms / pairs
     ns_n, ns_nA = 1e9 * t_native / pairs, 1e9 * t_native_A / pairs
     ns_sA = 1e9 * t_simsopt_A / (args.points * n_seg_simsopt)
+    ns_el, ns_elA = 1e9 * t_el / (args.points * n_el), 1e9 * t_el_A / (args.points * n_el)
     lines = [
         "# B and A of the W7-X coils: simsopt BiotSavart vs vpforms (native and JAX)",
         "",
@@ -127,10 +135,16 @@ def main() -> None:
         f"{1e6 * t_native / args.points:.1f} |",
         f"| vpforms `CoilSet.evaluate(x, \"A\")` (native C, OpenMP) | {t_native_A:.3f} | {ns_nA:.2f} | "
         f"{1e6 * t_native_A / args.points:.1f} |",
+        f"| vpforms `QuadratureCoils.evaluate(x, \"B\")` (simsopt's elements; native C, OpenMP) | {t_el:.3f} | "
+        f"{ns_el:.2f} | {1e6 * t_el / args.points:.1f} |",
+        f"| vpforms `QuadratureCoils.evaluate(x, \"A\")` (simsopt's elements; native C, OpenMP) | {t_el_A:.3f} | "
+        f"{ns_elA:.2f} | {1e6 * t_el_A / args.points:.1f} |",
         f"| vpforms `CoilSet.B` (JAX, jit, chunks of {CHUNK} points) | {t_vpforms:.3f} | {ns_v:.2f} | "
         f"{1e6 * t_vpforms / args.points:.1f} |",
         "",
-        f"Per pair, vpforms native B / simsopt: **{ns_n / ns_s:.2f}×** (A against simsopt's A: {ns_nA / ns_sA:.2f}×); per point "
+        f"simsopt's own elements ({n_el} of them), natively: B **{ns_el / ns_s:.2f}×** simsopt's time, A "
+        f"{ns_elA / ns_sA:.2f}×, max |B_vpforms − B_simsopt| / max |B| = {diff_el:.1e} (the same sum). "
+        f"Segments, per pair, vpforms native B / simsopt: **{ns_n / ns_s:.2f}×** (A against simsopt's A: {ns_nA / ns_sA:.2f}×); per point "
         f"{t_native / t_simsopt:.2f}×. vpforms JAX / simsopt: {t_vpforms / t_simsopt:.1f}× per point; its first "
         f"call (compile included) {t_first:.2f} s. max |B_native − B_JAX| / max |B| = {diff_native:.1e}; "
         f"max |B_vpforms − B_simsopt| / max |B| = {diff:.1e} (the polyline's O(1/n²) at 96 points per coil; "

@@ -215,26 +215,7 @@ class CoilSet:
         number of segments; ~2 ns per pair for B, ~3.5 ns for A on one core:
         ``benchmarks/peers/results_biot_savart.md``). ``"jax"``: :meth:`B` / :meth:`A` (compiled
         per shape of ``x``). Both equal to rounding (tests/test_biot_savart_native.py)."""
-        if what not in ("A", "B"):
-            raise ValueError(f"what must be 'A' or 'B'; got {what!r}")
-        if backend not in ("auto", "native", "jax"):
-            raise ValueError(f"backend must be 'auto', 'native' or 'jax'; got {backend!r}")
-        pts = np.asarray(x, dtype=np.float64)
-        if pts.ndim not in (1, 2) or pts.shape[-1] != 3:
-            raise ValueError(f"points must have shape (3,) or (N, 3); got {pts.shape}")
-        if not np.all(np.isfinite(pts)):
-            raise ValueError("points must be finite")
-        if backend != "jax":
-            # imported here: the native backend's code generator imports this module
-            from ..backends.native import available
-            from ..backends.native.biot_savart import evaluate
-
-            ok, why = available()
-            if ok:
-                return evaluate(self, pts, what).reshape(pts.shape)
-            if backend == "native":
-                raise RuntimeError(f"the native Biot–Savart evaluator is not available here: {why}")
-        return np.asarray((self.A if what == "A" else self.B)(pts))
+        return evaluate_on_host(self, x, what, backend)
 
     def potential(self) -> CoilPotential:
         """A as a :class:`CoilPotential` (Cartesian): ``Field.from_vector_potential(coils.potential(),
@@ -291,6 +272,31 @@ class CoilPotential(VectorPotential):
             return Ai
 
         return tuple(comp(i) for i in range(3))
+
+
+def evaluate_on_host(coils: Any, x: Any, what: str, backend: str) -> np.ndarray:
+    """``coils.evaluate`` (:class:`CoilSet`, :class:`~vpforms.coils.QuadratureCoils`): A or B at
+    the points x as NumPy, natively where the backend allows, else by the coils' JAX ``A``/``B``."""
+    if what not in ("A", "B"):
+        raise ValueError(f"what must be 'A' or 'B'; got {what!r}")
+    if backend not in ("auto", "native", "jax"):
+        raise ValueError(f"backend must be 'auto', 'native' or 'jax'; got {backend!r}")
+    pts = np.asarray(x, dtype=np.float64)
+    if pts.ndim not in (1, 2) or pts.shape[-1] != 3:
+        raise ValueError(f"points must have shape (3,) or (N, 3); got {pts.shape}")
+    if not np.all(np.isfinite(pts)):
+        raise ValueError("points must be finite")
+    if backend != "jax":
+        # imported here: the native backend's code generator imports this module
+        from ..backends.native import available
+        from ..backends.native.biot_savart import evaluate
+
+        ok, why = available()
+        if ok:
+            return evaluate(coils, pts, what).reshape(pts.shape)
+        if backend == "native":
+            raise RuntimeError(f"the native Biot–Savart evaluator is not available here: {why}")
+    return np.asarray((coils.A if what == "A" else coils.B)(pts))
 
 
 def _points(x: Any) -> Any:

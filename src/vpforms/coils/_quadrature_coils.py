@@ -35,7 +35,7 @@ import numpy as np
 
 from .. import _config  # noqa: F401  (float64)
 from .._vecpot import VectorPotential
-from ._coilset import _FLIP, _finite_scalar, _points, _rotation_z
+from ._coilset import _FLIP, _finite_scalar, _points, _rotation_z, evaluate_on_host
 from ._segments import _MU0_4PI, _POINTS_CHUNK, chunked, segment_chunk, sum_over_points
 
 __all__ = ["QuadratureCoils", "QuadraturePotential"]
@@ -151,6 +151,13 @@ class QuadratureCoils:
     def A(self, x: Any) -> jax.Array:
         """A (T·m, ∇×A = B exactly) at x (m) of shape (3,) or (N, 3), the same shape."""
         return _evaluate(_points(x), *self._elements, True, False, segment_chunk())
+
+    def evaluate(self, x: Any, what: str = "B", *, backend: str = "auto") -> np.ndarray:
+        """B (``what="B"``, T) or A (``"A"``, T·m) at many points x (m), (3,) or (N, 3), as NumPy:
+        natively where a C compiler is found (generated C, OpenMP over the points, O(N + K)
+        memory: :mod:`vpforms.backends.native.biot_savart`), else (or with ``backend="jax"``) by
+        :meth:`B` / :meth:`A`; as :meth:`vpforms.coils.CoilSet.evaluate`."""
+        return evaluate_on_host(self, x, what, backend)
 
     def potential(self) -> QuadraturePotential:
         """A as a Cartesian :class:`QuadraturePotential`."""

@@ -50,9 +50,9 @@ SOURCE = ("vacuum field of filamentary coils (Hanson & Hirshman, Phys. Plasmas 9
 
 
 def _coil_values(coils, xyz, what) -> np.ndarray:
-    """A or B of ``coils`` at the points xyz (N, 3) as NumPy: natively for a :class:`CoilSet`
-    (:meth:`~vpforms.coils.CoilSet.evaluate`), else its JAX ``A``/``B`` (quadrature coils)."""
-    if isinstance(coils, CoilSet):
+    """A or B of ``coils`` at the points xyz (N, 3) as NumPy: natively for a :class:`CoilSet` or
+    :class:`~vpforms.coils.QuadratureCoils` (their ``evaluate``), else by its JAX ``A``/``B``."""
+    if hasattr(coils, "evaluate"):
         return coils.evaluate(xyz, what)
     return np.asarray(coils.A(xyz) if what == "A" else coils.B(xyz))
 

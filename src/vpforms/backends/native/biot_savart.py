@@ -12,10 +12,14 @@ for every coil set (the coils are data: :func:`.codegen.coils._pack`):
   curl of that A to rounding (tested against the first derivatives of the A loop) and ~2× cheaper
   than that curl (no logarithm).
 
+Current elements (:class:`vpforms.coils.QuadratureCoils`, simsopt's rule): A = (μ0/4π) Σ_k w_k/r_k,
+B = (μ0/4π) Σ_k w_k × (x − γ_k)/r_k³, r_k = |x − γ_k| (:func:`.codegen.coils._element_helper`), as
+:mod:`vpforms.coils._quadrature_coils` writes them for JAX.
+
 The points are shared among OpenMP threads (``OMP_NUM_THREADS``); each point loops over every
 segment with nothing stored per pair, so memory is the points and the coils (O(N + S)) for any
-number of segments. :func:`evaluate` is what :func:`vpforms.coils.biot_savart` calls on the native
-backend.
+number of segments. :func:`evaluate` is what ``CoilSet.evaluate`` and ``QuadratureCoils.evaluate``
+call on the native backend.
 """
 
 from __future__ import annotations
@@ -25,55 +29,52 @@ from functools import lru_cache
 import numpy as np
 
 from .build import build
-from .codegen.coils import _LOG1P_DECL, _NAME, _pack, _segment_B_helper, _segment_helper
+from .codegen.coils import _LOG1P_DECL, _MU0_4PI, _NAME, _element_helper, _pack, _segment_B_helper, _segment_helper
 
 __all__ = ["evaluate"]
-
-_CDEF = """
-void vp_bs_A(const double *fd, const double *h, const double *x, int64_t n, double *out);
-void vp_bs_B(const double *fd, const double *h, const double *x, int64_t n, double *out);
-void vp_bs_dA(const double *fd, const double *h, const double *x, int64_t n, double *out);
-"""
 
 _FIRST = ((1, 0, 0), (0, 1, 0), (0, 0, 1))
 
 
+def _loops() -> dict[str, tuple[str, int, str]]:
+    """Entry name → (the helper's C, doubles out per point, what it computes)."""
+    return {
+        "vp_bs_A": (_segment_helper(((0, 0, 0),)), 3, "A of segments: Σ_s ê_s f_s"),
+        "vp_bs_B": (_segment_B_helper(), 3, "B of segments: Σ_s g_s ê_s × (x − x_i)"),
+        "vp_bs_dA": (_segment_helper(_FIRST), 9, "∂_j A_k of segments (k·3 + j): the A loop's first derivatives"),
+        "vp_el_A": (_element_helper("A"), 3, "A of current elements: Σ_k w_k/r_k"),
+        "vp_el_B": (_element_helper("B"), 3, "B of current elements: Σ_k w_k × (x − γ_k)/r_k³"),
+    }
+
+
+_CDEF = "".join(f"void {name}(const double *fd, const double *h, const double *x, int64_t n, double *out);\n"
+                for name in ("vp_bs_A", "vp_bs_B", "vp_bs_dA", "vp_el_A", "vp_el_B"))
+
+
 @lru_cache(maxsize=1)
 def _source() -> str:
-    """The C source: the segment loops (A; B; A's first derivatives) and a point loop for each."""
-    value = _segment_helper(((0, 0, 0),)).replace(_NAME, "vp_bs_value")
-    closed = _segment_B_helper().replace(_NAME, "vp_bs_closed")
-    first = _segment_helper(_FIRST).replace(_NAME, "vp_bs_first")
-    return f"""#include <math.h>
-#include <stdint.h>
-{_LOG1P_DECL}{value}
-{closed}
-{first}
-/* A at the points x (n × 3): Σ_s ê_s f_s */
-void vp_bs_A(const double *fd, const double *h, const double *x, int64_t n, double *out) {{
+    """The C source: each helper (one point, a loop over the segments or elements) and an OpenMP
+    loop over the points calling it."""
+    parts = ["#include <math.h>", "#include <stdint.h>", _LOG1P_DECL]
+    for name, (helper, width, what) in _loops().items():
+        parts += [helper.replace(_NAME, f"{name}_one"), f"""/* {what}, at the points x (n × 3) */
+void {name}(const double *fd, const double *h, const double *x, int64_t n, double *out) {{
     #pragma omp parallel for schedule(dynamic, 64)
     for (int64_t i = 0; i < n; i++)
-        vp_bs_value(fd, h, x[3 * i], x[3 * i + 1], x[3 * i + 2], out + 3 * i);
+        {name}_one(fd, h, x[3 * i], x[3 * i + 1], x[3 * i + 2], out + {width} * i);
 }}
-
-/* B at the points x: Σ_s g_s ê_s × (x − x_i) */
-void vp_bs_B(const double *fd, const double *h, const double *x, int64_t n, double *out) {{
-    #pragma omp parallel for schedule(dynamic, 64)
-    for (int64_t i = 0; i < n; i++)
-        vp_bs_closed(fd, h, x[3 * i], x[3 * i + 1], x[3 * i + 2], out + 3 * i);
-}}
-
-/* ∂_j A_k at the points x (n × 9, k·3 + j): the A loop's first derivatives */
-void vp_bs_dA(const double *fd, const double *h, const double *x, int64_t n, double *out) {{
-    #pragma omp parallel for schedule(dynamic, 64)
-    for (int64_t i = 0; i < n; i++)
-        vp_bs_first(fd, h, x[3 * i], x[3 * i + 1], x[3 * i + 2], out + 9 * i);
-}}
-"""
+"""]
+    return "\n".join(parts)
 
 
-def _data(coils) -> tuple[np.ndarray, np.ndarray]:
-    """(fd, h): the coils' segment arrays and their header, as the stepping kernels pack them."""
+def _data(coils) -> tuple[np.ndarray, np.ndarray, str]:
+    """(fd, h, prefix): the coils' arrays, their header [offset 0, count] and the entries' prefix —
+    a :class:`~vpforms.coils.CoilSet`'s segments as the stepping kernels pack them (``vp_bs``), or
+    a :class:`~vpforms.coils.QuadratureCoils`' elements γ_k, (μ0/4π) w_k (``vp_el``)."""
+    if hasattr(coils, "elements"):
+        gamma, w = (np.asarray(a, np.float64) for a in coils.elements())
+        fd = np.concatenate([gamma.T.ravel(), (_MU0_4PI * w).T.ravel()])
+        return fd, np.array([0.0, gamma.shape[0]]), "vp_el"
     parts = []
 
     def put(a):
@@ -82,18 +83,19 @@ def _data(coils) -> tuple[np.ndarray, np.ndarray]:
 
     h = np.zeros(2)
     _pack(coils, h, put)
-    return np.ascontiguousarray(parts[0]), h
+    return np.ascontiguousarray(parts[0]), h, "vp_bs"
 
 
 def evaluate(coils, points: np.ndarray, what: str) -> np.ndarray:
-    """A (``what="A"``, (N, 3), T·m), B (``"B"``, (N, 3), T) or the Jacobian of A (``"dA"``,
-    (N, 3, 3): [k, j] = ∂_j A_k, T) of a :class:`vpforms.coils.CoilSet` at ``points`` (N, 3) (m)."""
+    """A (``what="A"``, (N, 3), T·m) or B (``"B"``, (N, 3), T) of a :class:`vpforms.coils.CoilSet`
+    or :class:`~vpforms.coils.QuadratureCoils` at ``points`` (N, 3) (m); for a CoilSet also the
+    Jacobian of A (``"dA"``, (N, 3, 3): [k, j] = ∂_j A_k, T)."""
     lib = build(_source(), _CDEF)
-    fd, h = _data(coils)
+    fd, h, prefix = _data(coils)
     x = np.ascontiguousarray(points, np.float64).reshape(-1, 3)
     out = np.empty((x.shape[0], 9 if what == "dA" else 3))
     ffi = lib.ffi
-    fn = {"A": lib.lib.vp_bs_A, "B": lib.lib.vp_bs_B, "dA": lib.lib.vp_bs_dA}[what]
+    fn = getattr(lib.lib, f"{prefix}_{what}")
     fn(ffi.from_buffer("double[]", fd), ffi.from_buffer("double[]", h), ffi.from_buffer("double[]", x),
        x.shape[0], ffi.from_buffer("double[]", out))
     return out.reshape(-1, 3, 3) if what == "dA" else out

@@ -187,9 +187,11 @@ def _segment_geometry() -> tuple[dict, tuple, tuple, Any, Any]:
     return S, cr, branches, (Ri, Rf), (t, u)
 
 
-def _loop(comment: str, name: str, accumulators: list[str], body: list[str], store: str) -> str:
-    """A C helper ``name``(fd, h, p₁, p₂, p₃, out) looping ``body`` over the segments."""
-    loop = "\n        ".join([f"double vc_{nm} = q[{j} * S + s];" for j, nm in enumerate(_SEG)] + body)
+def _loop(comment: str, name: str, accumulators: list[str], body: list[str], store: str,
+          fields: tuple[str, ...] = _SEG) -> str:
+    """A C helper ``name``(fd, h, p₁, p₂, p₃, out) looping ``body`` over the S columns of the
+    arrays ``fields`` (read as ``vc_<field>``; h = [offset of the arrays, S])."""
+    loop = "\n        ".join([f"double vc_{nm} = q[{j} * S + s];" for j, nm in enumerate(fields)] + body)
     return f"""/* {comment} */
 static void {name}(const double *fd, const double *h, double vc_p1, double vc_p2, double vc_p3,
                    double *restrict out) {{
@@ -251,6 +253,36 @@ def _segment_B_helper() -> str:
     body += [f"o{k} += ({_printer.doprint(red[0])}) * ({_printer.doprint(red[1 + k])});" for k in range(3)]
     return _loop("B = Σ_s g_s ê_s × (x − x_i) at p: Hanson–Hirshman segments, closed form", _NAME,
                  ["o0", "o1", "o2"], body, "out[0] = o0; out[1] = o1; out[2] = o2;")
+
+
+#: the arrays of a current element k (:class:`vpforms.coils.QuadratureCoils`): γ_k, w_k
+_ELEMENT = ("g0", "g1", "g2", "w0", "w1", "w2")
+
+
+@lru_cache(maxsize=2)
+def _element_helper(what: str) -> str:
+    """The C helper (named ``_NAME``)(fd, h, p₁, p₂, p₃, out): A = Σ_k w_k/r_k (``what="A"``) or
+    B = Σ_k w_k × (x − γ_k)/r_k³ (``"B"``), r_k = |x − γ_k|, of current elements (γ_k, w_k) with the
+    weights w_k already holding μ0/4π; generated from SymPy."""
+    S = {n: sp.Symbol(f"vc_{n}", real=True) for n in _ELEMENT}
+    d = [_P[j] - S[f"g{j}"] for j in range(3)]  # x − γ_k
+    w = [S[f"w{j}"] for j in range(3)]
+    # 1/r as a variable of its own (a square root and a division, which vectorise; SymPy would
+    # print r⁻³ as pow(·, −3/2), a scalar call 13× slower)
+    inv = sp.Symbol("vc_inv", positive=True)
+    if what == "A":
+        terms = [w[k] * inv for k in range(3)]
+    else:
+        cross = (w[1] * d[2] - w[2] * d[1], w[2] * d[0] - w[0] * d[2], w[0] * d[1] - w[1] * d[0])
+        inv3 = sp.Symbol("vc_inv3", positive=True)
+        terms = [c * inv3 for c in cross]
+    reps, red = sp.cse(terms, symbols=sp.numbered_symbols("vc_a"))
+    body = [f"double vc_inv = 1.0 / sqrt({_printer.doprint(sum(v * v for v in d))});"]
+    body += [] if what == "A" else ["double vc_inv3 = vc_inv * vc_inv * vc_inv;"]
+    body += [f"double {v} = {_printer.doprint(ex)};" for v, ex in reps]
+    body += [f"o{k} += {_printer.doprint(red[k])};" for k in range(3)]
+    return _loop(f"{what} of current elements at p", _NAME, ["o0", "o1", "o2"], body,
+                 "out[0] = o0; out[1] = o1; out[2] = o2;", fields=_ELEMENT)
 
 
 def _libmvec_log1p() -> bool:
