@@ -24,7 +24,7 @@ from vpforms.phitime import (
     phi_time_scheme,
     to_phi_time,
 )
-from vpforms.phitime._spline import spline_phi_time_field
+from vpforms.phitime._spline import _in_blocks, spline_phi_time_field
 from vpforms.toroidal import ToroidalPotential
 
 from .test_methods_helpers import fit_order
@@ -182,3 +182,19 @@ def test_bad_input_is_a_clear_error():
         PhiTimeCoordinates(A, BOX, level_v="maybe")
     with pytest.raises(TypeError, match="one .* vector potential"):
         phi_time_field(vpforms.Field.linear(np.diag([1.0, -1.0, 0.0])), BOX, grid=GRID)
+
+
+@pytest.mark.parametrize("n", [1, 1000, 8192, 20_001])
+def test_blocks_on_threads_are_the_rows_in_order(n):
+    # _in_blocks pads the last block and runs all but the first on two threads: every row's value,
+    # in its place, and nothing of the padding
+    y = np.random.default_rng(0).normal(size=(n, 3))
+    calls = []
+
+    def fn(q):
+        calls.append(q.shape)
+        return jnp.sin(q[:, 0]) * q[:, 1] + q[:, 2]
+
+    out = _in_blocks(fn, y)
+    np.testing.assert_array_equal(out, np.asarray(jnp.sin(y[:, 0]) * y[:, 1] + y[:, 2]))
+    assert len(set(calls)) == 1 and calls[0][0] >= min(n, 1024)  # one block shape per call
