@@ -204,9 +204,20 @@ def _clustered(lo: float, hi: float, n: int, c: float) -> np.ndarray:
 def _b_exact(coords: PhiTimeCoordinates, y: np.ndarray) -> np.ndarray:
     """b = (−∂_ZK, 1, ∂_vK) of the exact K (U by Newton) at points y (n, 3) of (v, φ, Z)."""
 
+    sign = float(coords.sign)
+
     def b(p):
-        dK = jax.grad(coords._K, argnums=(0, 2))(p[0], p[1], p[2])
-        return jnp.stack([-dK[1], jnp.ones_like(dK[0]), dK[0]])
+        # K = s·A'_φ(U, φ, Z) with V(U, φ, Z) = −s·A'_Z = v: by the implicit function theorem
+        # ∂_vU = 1/V_u, ∂_ZU = −V_Z/V_u, so ∂_vK = s ∂_uA'_φ/V_u and ∂_ZK = s (∂_ZA'_φ − ∂_uA'_φ V_Z/V_u)
+        # — what jax.grad of K gives through U's custom_jvp, from one Jacobian of A' at (U, φ, Z)
+        # (not the solve traced again inside its own derivative: 4 s less tracing on a spline A)
+        v, phi, Z = p[0], p[1], p[2]
+        u = coords._U(v, phi, Z)
+        (Ap_u, Ap_Z), (Az_u, Az_Z) = jax.jacfwd(lambda uu, zz: coords._Aprime(uu, phi, zz), argnums=(0, 1))(u, Z)
+        V_u, V_Z = -sign * Az_u, -sign * Az_Z
+        dK_dv = sign * Ap_u / V_u
+        dK_dZ = sign * (Ap_Z - Ap_u * V_Z / V_u)
+        return jnp.stack([-dK_dZ, jnp.ones_like(dK_dv), dK_dv])
 
     return _in_blocks(_batched(coords, "b", lambda: jax.jit(jax.vmap(b))), np.asarray(y, float).reshape(-1, 3))
 
