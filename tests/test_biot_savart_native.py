@@ -13,6 +13,8 @@ from vpforms.backends.native.biot_savart import evaluate as native_evaluate
 from vpforms.coils import Coil, CoilSet, device, l2_stellarator
 from vpforms.coils._segments import segments_AB
 
+from .test_coils import FAR_AND_NEAR, far_or_near_point
+
 _OK, _WHY = vp.native.available()
 pytestmark = pytest.mark.skipif(not _OK, reason=f"native backend unavailable: {_WHY}")
 
@@ -36,17 +38,11 @@ def test_native_equals_jax_on_the_l2_coils(what):
     np.testing.assert_allclose(coils.evaluate(x[7], what), got[7], rtol=0, atol=1e-15 * scale)
 
 
-@pytest.mark.parametrize("where", ["far (1e5 L)", "far (1e8 L)", "near (1e-6 L, mid)", "near (1e-4 L, end)"])
+@pytest.mark.parametrize("where", FAR_AND_NEAR)
 def test_native_keeps_the_cancellation_free_forms(where):
     # -ffast-math must not undo what the JAX forms do far from and near a segment (test_coils.py's
     # mpmath test for the JAX side): the native values equal them to the same 1e-10 / 1e-9
-    xi, xf = np.array([0.3, -0.2, 0.1]), np.array([0.5, 0.4, -0.3])
-    L = np.linalg.norm(xf - xi)
-    e = (xf - xi) / L
-    n = np.cross(e, [0.0, 0.0, 1.0])
-    n /= np.linalg.norm(n)
-    x = {"far (1e5 L)": xi + 1e5 * L * n + 0.3 * L * e, "far (1e8 L)": xi + 1e8 * L * n - 2 * L * e,
-         "near (1e-6 L, mid)": xi + 0.4 * L * e + 1e-6 * L * n, "near (1e-4 L, end)": xf + 1e-4 * L * n}[where]
+    x, xi, xf, e, n = far_or_near_point(where)
     # a triangle with that segment as one side; far away its three sides' fields cancel to a
     # dipole's, so the rounding is measured against the sides' own sizes (Σ_s |term_s|)
     coils = CoilSet([Coil(np.array([xi, xf, xi + 5 * n + 5 * e]), 2.5e3)])

@@ -327,10 +327,12 @@ def _mp_segment(x, xi, xf, current):
         return np.array([float(A * v) for v in e]), np.array([float(Bmag * v / rho) for v in c])
 
 
-@pytest.mark.parametrize("where", ["far (1e5 L)", "far (1e8 L)", "near (1e-6 L, mid)", "near (1e-4 L, end)"])
-def test_segment_stable_far_and_near(where):
-    # the plain quotient ln((R_i+R_f+L)/(R_i+R_f−L)) loses ~log10(distance/L) digits far away, and
-    # (R_i+R_f)² − L² loses ~2 log10(L/ρ) digits near the segment: the stable forms keep ≲ 1e-10
+#: where a segment's plain formulas lose digits (test_segment_stable_far_and_near)
+FAR_AND_NEAR = ["far (1e5 L)", "far (1e8 L)", "near (1e-6 L, mid)", "near (1e-4 L, end)"]
+
+
+def far_or_near_point(where: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(x, x_i, x_f, ê, n̂): a segment, a unit normal to it, and the point ``where`` (FAR_AND_NEAR)."""
     xi, xf = np.array([0.3, -0.2, 0.1]), np.array([0.5, 0.4, -0.3])
     L = np.linalg.norm(xf - xi)
     e = (xf - xi) / L
@@ -338,6 +340,14 @@ def test_segment_stable_far_and_near(where):
     n /= np.linalg.norm(n)
     x = {"far (1e5 L)": xi + 1e5 * L * n + 0.3 * L * e, "far (1e8 L)": xi + 1e8 * L * n - 2 * L * e,
          "near (1e-6 L, mid)": xi + 0.4 * L * e + 1e-6 * L * n, "near (1e-4 L, end)": xf + 1e-4 * L * n}[where]
+    return x, xi, xf, e, n
+
+
+@pytest.mark.parametrize("where", FAR_AND_NEAR)
+def test_segment_stable_far_and_near(where):
+    # the plain quotient ln((R_i+R_f+L)/(R_i+R_f−L)) loses ~log10(distance/L) digits far away, and
+    # (R_i+R_f)² − L² loses ~2 log10(L/ρ) digits near the segment: the stable forms keep ≲ 1e-10
+    x, xi, xf, _, _ = far_or_near_point(where)
     A_t, B_t = _mp_segment(x, xi, xf, 2.5e3)
     A, B = np.asarray(segments_AB(x, xi[None], xf[None], np.array([2.5e3])))
     # rounding of x − x_i alone is ε|x|/ρ relative near the segment
