@@ -149,6 +149,8 @@ class CoilSet:
     ``B(x)`` and ``A(x)`` accept a point of shape (3,) or points (N, 3) (m) and return B (T) and
     A (T·m) of the same shape; they are JAX-traceable (jit, vmap, jacfwd). ``A`` is a Cartesian
     vector potential with ∇×A = B, e.g. for :class:`vpforms.toroidal.ToroidalPotential`.
+    :meth:`evaluate` gives either at many concrete points as NumPy, natively (generated C, bounded
+    memory for any number of segments).
     """
 
     def __init__(self, coils: Iterable[Coil], nfp: int = 1, stellsym: bool = False):
