@@ -10,7 +10,7 @@ import pytest
 
 import vpforms as vp
 from vpforms.backends.native.biot_savart import evaluate as native_evaluate
-from vpforms.coils import Coil, CoilSet, device, l2_stellarator
+from vpforms.coils import Coil, CoilSet, _coilset, device, l2_stellarator
 from vpforms.coils._segments import segments_AB
 
 from .test_coils import FAR_AND_NEAR, far_or_near_point
@@ -88,6 +88,8 @@ def test_a_polygon_of_1e5_sides_is_exact_at_its_centre_and_bounded_in_memory():
 
 
 def test_bad_input_and_backends(monkeypatch):
+    # `import vpforms` (which any `vpforms.coils` import runs first) registers the native path
+    assert _coilset.NATIVE["evaluate"] is native_evaluate
     coils = l2_stellarator()
     with pytest.raises(ValueError, match="what must be 'A' or 'B'"):
         coils.evaluate(np.zeros(3), "C")

@@ -13,6 +13,7 @@ from typing import Any
 from .._errors import VPFormsError
 from .native import available
 from .native.codegen import unsupported_reason
+from .native import biot_savart  # noqa: F401  (registers the native path of CoilSet.evaluate)
 
 __all__ = ["BACKENDS", "NativeUnavailableError", "select_backend"]
 

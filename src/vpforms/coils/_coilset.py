@@ -276,6 +276,13 @@ class CoilPotential(VectorPotential):
         return tuple(comp(i) for i in range(3))
 
 
+#: the native host evaluator: ``evaluate`` (coils, points (N, 3), what) → (N, 3) and ``available``
+#: () → (bool, why), registered by :mod:`vpforms.backends.native.biot_savart` — whose code generator
+#: imports this module, so this one cannot import it (imports flow one way: tests/test_imports.py);
+#: ``import vpforms`` loads it (vpforms.native → vpforms.backends)
+NATIVE: dict[str, Any] = {}
+
+
 def evaluate_on_host(coils: Any, x: Any, what: str, backend: str) -> np.ndarray:
     """``coils.evaluate`` (:class:`CoilSet`, :class:`~vpforms.coils.QuadratureCoils`): A or B at
     the points x as NumPy, natively where the backend allows, else by the coils' JAX ``A``/``B``."""
@@ -289,13 +296,10 @@ def evaluate_on_host(coils: Any, x: Any, what: str, backend: str) -> np.ndarray:
     if not np.all(np.isfinite(pts)):
         raise ValueError("points must be finite")
     if backend != "jax":
-        # imported here: the native backend's code generator imports this module
-        from ..backends.native import available
-        from ..backends.native.biot_savart import evaluate
-
-        ok, why = available()
+        native = NATIVE.get("evaluate")
+        ok, why = NATIVE["available"]() if native else (False, "vpforms.backends is not loaded")
         if ok:
-            return evaluate(coils, pts, what).reshape(pts.shape)
+            return native(coils, pts, what).reshape(pts.shape)
         if backend == "native":
             raise RuntimeError(f"the native Biot–Savart evaluator is not available here: {why}")
     return np.asarray((coils.A if what == "A" else coils.B)(pts))

@@ -28,7 +28,8 @@ from functools import lru_cache
 
 import numpy as np
 
-from .build import build
+from ...coils import _coilset
+from .build import available, build
 from .codegen.coils import _LOG1P_DECL, _MU0_4PI, _NAME, _element_helper, _pack, _segment_B_helper, _segment_helper
 
 __all__ = ["evaluate"]
@@ -99,3 +100,6 @@ def evaluate(coils, points: np.ndarray, what: str) -> np.ndarray:
     fn(ffi.from_buffer("double[]", fd), ffi.from_buffer("double[]", h), ffi.from_buffer("double[]", x),
        x.shape[0], ffi.from_buffer("double[]", out))
     return out.reshape(-1, 3, 3) if what == "dA" else out
+
+
+_coilset.NATIVE.update(evaluate=evaluate, available=available)  # CoilSet/QuadratureCoils.evaluate
