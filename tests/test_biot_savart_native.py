@@ -121,3 +121,13 @@ def test_current_elements_native_equal_jax(what):
     got = coils.evaluate(x, what, backend="native")
     ref = coils.evaluate(x, what, backend="jax")
     assert np.max(np.abs(got - ref)) <= 1e-13 * np.max(np.abs(ref))
+
+
+@pytest.mark.parametrize("backend", ["native", "jax"])
+@pytest.mark.parametrize("what", ["A", "B"])
+def test_a_point_on_a_wire_is_named_not_returned_as_inf(backend, what):
+    coils = l2_stellarator()
+    vertex = np.asarray(coils.segments()[1][0])  # the end of the first segment: on the wire
+    x = np.stack([_l2_points(3)[0], vertex])
+    with pytest.raises(ValueError, match=r"not finite at the point .* \(1 of 2 points\): it lies on a coil wire"):
+        coils.evaluate(x, what, backend=backend)

@@ -295,14 +295,19 @@ def evaluate_on_host(coils: Any, x: Any, what: str, backend: str) -> np.ndarray:
         raise ValueError(f"points must have shape (3,) or (N, 3); got {pts.shape}")
     if not np.all(np.isfinite(pts)):
         raise ValueError("points must be finite")
+    native, ok = NATIVE.get("evaluate"), False
     if backend != "jax":
-        native = NATIVE.get("evaluate")
         ok, why = NATIVE["available"]() if native else (False, "vpforms.backends is not loaded")
-        if ok:
-            return native(coils, pts, what).reshape(pts.shape)
-        if backend == "native":
+        if backend == "native" and not ok:
             raise RuntimeError(f"the native Biot–Savart evaluator is not available here: {why}")
-    return np.asarray((coils.A if what == "A" else coils.B)(pts))
+    out = (native(coils, pts, what) if backend != "jax" and ok else
+           np.asarray((coils.A if what == "A" else coils.B)(pts))).reshape(pts.shape)
+    bad = ~np.all(np.isfinite(out.reshape(-1, 3)), axis=1)
+    if np.any(bad):  # A and B are singular on a wire: a point there is named, never a NaN returned
+        p = pts.reshape(-1, 3)[int(np.flatnonzero(bad)[0])]
+        raise ValueError(f"{what} of the coils is not finite at the point ({p[0]:.9g}, {p[1]:.9g}, {p[2]:.9g}) m "
+                         f"({int(bad.sum())} of {bad.size} points): it lies on a coil wire")
+    return out
 
 
 def _points(x: Any) -> Any:

@@ -12,6 +12,7 @@ import numpy as np
 import sympy as sp
 
 from .._fieldops import _lambdify_scalar
+from .._phases import phase
 from .._quadrature import DEFAULT_N
 from .._vecpot import CallablePotential, VectorPotential
 from ..fields import Field
@@ -105,8 +106,9 @@ def phi_time_field(A: VectorPotential | Callable[[Any], Any], box: Any = None, *
         raise ValueError("nfp is the potential's (ToroidalPotential(A, nfp)); do not pass it again")
     splined = grid is not None or kw.get("tol") is not None
     level_v = ("auto" if splined else "no") if level_v is None else level_v
-    coords = PhiTimeCoordinates(A, box, u_ref=u_ref, inverse=inverse, a_u=a_u, level_v=level_v, margin=margin,
-                                n_check=n_check, quadrature_n=kw.get("quadrature_n", DEFAULT_N))
+    with phase("the φ-time coordinates (gauge, the sign of B^φ on the box, the v range)"):  # ~3 s on a spline A
+        coords = PhiTimeCoordinates(A, box, u_ref=u_ref, inverse=inverse, a_u=a_u, level_v=level_v, margin=margin,
+                                    n_check=n_check, quadrature_n=kw.get("quadrature_n", DEFAULT_N))
     if splined:
         return spline_phi_time_field(coords, grid, degree=degree, name=name, **kw)
     C = PhiTimePotential(coords)

@@ -169,7 +169,7 @@ def _K_spline_to_tol(coords, start, degree, cluster, chunk, tol, region, max_mem
     # points are thrown away
     K = _K_batched(coords)
     y0 = jnp.asarray(np.resize(pts, (_block_size(int(np.prod(start)), chunk), 3)))  # the first round's block
-    with ThreadPoolExecutor(1) as pool:
+    with phase(f"compiling K's sampling and the exact b at {len(pts)} check points"), ThreadPoolExecutor(1) as pool:
         warm = pool.submit(lambda: K(y0[:, 0], y0[:, 1], y0[:, 2]).block_until_ready())
         exact = _b_exact(coords, pts)
         warm.result()
