@@ -488,7 +488,9 @@ def check_pair(field: Any, splitting: str, points: Any = None, what: str = "") -
 def domain_check_points(field: Any, n: int, seed: int) -> np.ndarray:
     """``n`` seeded points where the field is used, in its own coordinates: samples of its
     :attr:`~vpforms.Field.domain` (toroidal (u = R²/2, φ, Z) or Cartesian) where it has one, else
-    uniform points of its box."""
+    uniform points of its box — or its own ``sampler`` (:meth:`vpforms.Field.sample_points`)."""
+    if getattr(field, "sampler", None) is not None:
+        return field.sample_points(n, seed)
     domain = getattr(field, "domain", None)
     if domain is None:
         return sample_box(field.box, n, seed)

@@ -36,7 +36,7 @@ import numpy as np
 from . import _config  # noqa: F401  (float64 on)
 from ._polygon import Wall, _fmt, _inside_kernel, _signed_distance_kernel
 
-__all__ = ["ToroidalDomain", "as_domain", "boundary_inside", "boundary_signed_distance"]
+__all__ = ["ToroidalDomain", "as_domain", "boundary_chord", "boundary_inside", "boundary_signed_distance"]
 
 
 # --------------------------------------------------------------------------------------------
@@ -77,6 +77,20 @@ def boundary_signed_distance(geom, R, phi, Z):
     if geom[2].shape[0] == 1:
         return _signed_distance_kernel(geom[2][0], geom[3][0], R, Z)
     return _per_point(_signed_distance_kernel, geom, R, phi, Z)
+
+
+def boundary_chord(geom, phi, Z):
+    """(R_lo, R_hi, crossings) of the horizontal line Z in the plane φ: the smallest and largest R
+    where it crosses the boundary V(φ), and how many edges it crosses (each crossing counted once:
+    half-open in Z). Two crossings: the line meets the cross-section in the one interval
+    [R_lo, R_hi]; none: it misses it (R_lo = +inf, R_hi = −inf); more: the cross-section is not
+    convex along R at that Z. Scalar φ and Z; JAX (jit, vmap)."""
+    Rv, Zv = _vertices_at(geom, phi)
+    R1, Z1 = jnp.roll(Rv, -1, axis=-1), jnp.roll(Zv, -1, axis=-1)
+    cross = ((Zv <= Z) & (Z1 > Z)) | ((Z1 <= Z) & (Zv > Z))
+    R = Rv + (Z - Zv) * (R1 - Rv) / jnp.where(cross, Z1 - Zv, 1.0)  # where the edge meets the line
+    return (jnp.min(jnp.where(cross, R, jnp.inf), axis=-1), jnp.max(jnp.where(cross, R, -jnp.inf), axis=-1),
+            jnp.sum(cross, axis=-1))
 
 
 _inside_jit = jax.jit(boundary_inside)

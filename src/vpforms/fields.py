@@ -196,6 +196,8 @@ class Field:
         self.coordinates = "cartesian (x1, x2, x3)"
         # points → None or ValueError for points off the field's domain (a gridded field's grid)
         self.domain_check: Callable[[Any], None] | None = None
+        # (n, seed) → n points (its coordinates) where the checks sample, or None (Field.sample_points)
+        self.sampler: Callable[[int, int], Any] | None = None
         # x (3,) → bool (JAX): is x in the domain? A failed step whose Euler point is not has
         # RESULTS.left_domain (a stop, not a failure of the method)
         self.inside: Callable[[Any], Any] | None = None
@@ -259,9 +261,13 @@ class Field:
         self.__dict__.pop("_checked_pairs", None)
 
     def sample_points(self, n: int | None = None, seed: int | None = None) -> np.ndarray:
-        """Seeded uniform sample points in :attr:`domain` where the field has one, else in :attr:`box`."""
+        """Seeded sample points: the field's ``sampler(n, seed)`` where it has one (a region in its
+        own coordinates that no box or (R, Z) domain describes: a φ-time field on a domain), else
+        uniform in :attr:`domain` where it has one, else in :attr:`box`."""
         n = self.n_samples if n is None else n
         seed = self.seed if seed is None else seed
+        if self.sampler is not None:
+            return np.asarray(self.sampler(n, seed), float)
         if self.domain is not None:
             return self.domain.sample_points(n, seed, toroidal=str(self.coordinates).startswith("toroidal"))
         return sample_box(self.box, n, seed)
@@ -555,6 +561,7 @@ class Field:
         quadrature_n: int = DEFAULT_N,
         domain: ToroidalDomain | None = None,
         coordinates: str | None = None,
+        sampler: Callable[[int, int], Any] | None = None,
     ) -> "Field":
         """A field from a JAX-traceable callable ``a(x)`` (x of shape (3,) → shape (3,)), or from
         three scalar callables ``(a1, a2, a3)`` of (x1, x2, x3).
@@ -564,6 +571,8 @@ class Field:
         :class:`NotDivergenceFreeError` with the largest divergence and where.  Potentials are
         differentiable Gauss–Legendre quadratures unless given as ``{"se": (F1, F3), "dl": (G1, G2)}``
         (scalar callables), which are then checked at the sample points to the same tolerance.
+        ``domain`` (toroidal coordinates) or ``sampler`` ((n, seed) → n points in the field's own
+        coordinates) replace the box as where these and later checks sample (:meth:`sample_points`).
         """
         box = _check_box(box)
         if callable(a):
@@ -626,6 +635,7 @@ class Field:
         if coordinates is not None:
             field.coordinates = coordinates
         field.domain = domain  # where it is given, the checks below sample it, not the box
+        field.sampler = sampler
         pts = jnp.asarray(field.sample_points())
         J = np.asarray(field.jacobian(pts))
         if not np.all(np.isfinite(J)):
@@ -684,6 +694,7 @@ class Field:
         quadrature_n: int = DEFAULT_N,
         domain: ToroidalDomain | None = None,
         coordinates: str | None = None,
+        sampler: Callable[[int, int], Any] | None = None,
     ) -> "Field":
         """The field a = ∇×A of a vector potential: a :class:`~vpforms._vecpot.VectorPotential`
         (coils, a spline of A on a grid, a toroidal-coordinate potential), three JAX scalar callables
@@ -700,7 +711,7 @@ class Field:
             A = CallablePotential(comps, periods if periods is not None else (None,) * 3)
         field = cls.from_callable(
             curl_of(A.components()), box=box, name=name, tol=tol, n_samples=n_samples, seed=seed,
-            origin=origin, quadrature_n=quadrature_n, domain=domain, coordinates=coordinates,
+            origin=origin, quadrature_n=quadrature_n, domain=domain, coordinates=coordinates, sampler=sampler,
         )
         field._vector_potentials.append(A)
         field.periods = tuple(A.periods) if periods is None else tuple(periods)

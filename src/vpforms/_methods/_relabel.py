@@ -68,8 +68,13 @@ def _build(field, pi: Perm) -> Field:
         y = x[jnp.asarray(inv)]
         return jnp.stack([jnp.asarray(comps[k](y[0], y[1], y[2]), float) for k in idx])
 
+    sampler = None
+    if field.sampler is not None or field.domain is not None:  # where a samples, relabelled: x = y·π
+        def sampler(n, seed):
+            return np.asarray(field.sample_points(n, seed), float)[..., idx]
+
     out = Field.from_callable(
-        a_tilde, box=box, name=name, origin=origin, quadrature_n=field.quadrature_n
+        a_tilde, box=box, name=name, origin=origin, quadrature_n=field.quadrature_n, sampler=sampler
     )
     out._vector_potentials = [_relabel_callables(A, pi) for A in field._vector_potentials]
     out.periods = tuple(getattr(field, "periods", (None,) * 3)[k] for k in idx)

@@ -15,6 +15,7 @@ from .. import _config  # noqa: F401  (float64)
 from .._potentials import _zero_between
 from .._quadrature import DEFAULT_N
 from .._vecpot import VectorPotential, _zero
+from ..domains import ToroidalDomain, boundary_chord
 
 __all__ = ["PhiTimeCoordinates", "PhiTimeError", "PhiTimePotential"]
 
@@ -52,11 +53,21 @@ class PhiTimeCoordinates:
     check grid; default "no", the v of the closed-form path of :mod:`._symbolic`). Scalar callables
     :meth:`V` (u, φ, Z) ↦ v, :meth:`U` (v, φ, Z) ↦ u, :meth:`K`, :meth:`Aprime` (A'_φ, A'_Z),
     :meth:`B_phi` (a² = B^φ); point maps :meth:`to_y`, :meth:`to_x` (shape (3,), jit/vmap-able).
+
+    ``domain`` (a :class:`~vpforms.domains.ToroidalDomain` inside the box; issue #38): the region
+    that follows the plasma instead of the box — B^φ's sign is required on it only, U's Newton
+    bracket at (φ, Z) is the domain's chord [R_lo, R_hi] (as u = R²/2) of the line Z in the plane φ
+    (each such line must meet the cross-section in one interval), and ``ybox`` bounds the image of
+    the domain, which is not a rectangle in (v, Z): U (hence K) is NaN outside it. A (its gauge χ
+    from ``u_ref``, the levelling along Z on u = ``u_ref``) is still evaluated between u_ref and the
+    domain: a spline of A that follows a larger domain (whole φ lines) covers that. ``box`` stays
+    the (u, φ, Z) box of A (``u_ref`` defaults to its u midpoint).
     """
 
     def __init__(self, A: VectorPotential, box: Any, *, u_ref: float | None = None,
                  inverse: Scalar | None = None, a_u: str = "auto", level_v: str = "no",
-                 margin: float = 0.02, n_check: int = 17, quadrature_n: int = DEFAULT_N, newton_max_iter: int = 80):
+                 margin: float = 0.02, n_check: int = 17, quadrature_n: int = DEFAULT_N, newton_max_iter: int = 80,
+                 domain: ToroidalDomain | None = None):
         if not isinstance(A, VectorPotential):
             raise TypeError("phi-time coordinates need a (u, φ, Z) VectorPotential, e.g. "
                             "vpforms.toroidal.ToroidalPotential(A_cartesian, nfp)")
@@ -72,6 +83,7 @@ class PhiTimeCoordinates:
         if not 0 <= margin < 0.5:
             raise ValueError(f"margin must be in [0, 0.5); got {margin!r}")
         self.A, self.box = A, box
+        self.domain = self._check_domain(domain, A.periods[1])
         self.u_ref = 0.5 * (box[0][0] + box[0][1]) if u_ref is None else float(u_ref)
         self.margin, self.n_check = float(margin), int(n_check)
         self.newton_max_iter = int(newton_max_iter)
@@ -138,19 +150,30 @@ class PhiTimeCoordinates:
             return -s * Aprime(u, phi, Z)[1]
 
         self._V = V
-        u_lo, u_hi = box[0]
         V_x = jax.jit(jax.vmap(V))
         faces = self._face_grid(max(n_check, 33))
-        v_min_face = np.asarray(V_x(np.full(len(faces), u_lo), faces[:, 0], faces[:, 1]))
-        v_max_face = np.asarray(V_x(np.full(len(faces), u_hi), faces[:, 0], faces[:, 1]))
-        v0, v1 = float(np.max(v_min_face)), float(np.min(v_max_face))
-        if not v0 < v1:
-            raise ValueError(
-                f"the (u, φ, Z) box {box} holds no (v, φ, Z) rectangle: v = −s·A'_Z spans "
-                f"[{v_min_face.min():.6g}, {v_min_face.max():.6g}] on u = {u_lo:g} and "
-                f"[{v_max_face.min():.6g}, {v_max_face.max():.6g}] on u = {u_hi:g}; widen the u interval")
-        w = v1 - v0
-        self.ybox = ((v0 + margin * w, v1 - margin * w), box[1], box[2])
+        lo_face, hi_face = (np.asarray(a) for a in jax.jit(jax.vmap(self._chord))(faces[:, 0], faces[:, 1]))
+        v_min_face = np.asarray(V_x(lo_face, faces[:, 0], faces[:, 1]))
+        v_max_face = np.asarray(V_x(hi_face, faces[:, 0], faces[:, 1]))
+        if self.domain is not None:  # the image of the domain's chords: K's grid is masked to it
+            met = np.isfinite(lo_face)
+            ok = met & np.isfinite(v_min_face) & np.isfinite(v_max_face)
+            if not ok.any() or not np.array_equal(ok, met):
+                raise PhiTimeError(f"A is not finite on the chords of the domain {self.domain.name!r}: "
+                                   "give a potential that covers the domain (a spline of A that follows it)")
+            v0, v1 = float(np.min(v_min_face[ok])), float(np.max(v_max_face[ok]))
+            pad = 0.5 * margin * (v1 - v0)  # a margin outside: the grid's edge nodes lie beyond the image
+            z0, z1 = self.domain.bounds[2:]
+            self.ybox = ((v0 - pad, v1 + pad), box[1], (z0, z1))
+        else:
+            v0, v1 = float(np.max(v_min_face)), float(np.min(v_max_face))
+            if not v0 < v1:
+                raise ValueError(
+                    f"the (u, φ, Z) box {box} holds no (v, φ, Z) rectangle: v = −s·A'_Z spans "
+                    f"[{v_min_face.min():.6g}, {v_min_face.max():.6g}] on u = {box[0][0]:g} and "
+                    f"[{v_max_face.min():.6g}, {v_max_face.max():.6g}] on u = {box[0][1]:g}; widen the u interval")
+            w = v1 - v0
+            self.ybox = ((v0 + margin * w, v1 - margin * w), box[1], box[2])
 
         # --- 3. the inverse U(v, φ, Z) ------------------------------------------------------------
         if inverse is not None:
@@ -202,17 +225,64 @@ class PhiTimeCoordinates:
         return jnp.stack([self._U(y[0], y[1], y[2]), y[1], y[2]])
 
     def inside(self, y):
-        """Whether U is defined at y = (v, φ, Z) (v within V's range on the u interval)."""
-        u_lo, u_hi = self.box[0]
+        """Whether U is defined at y = (v, φ, Z) (v within V's range on the u interval, or on the
+        domain's chord at (φ, Z))."""
+        u_lo, u_hi = self._chord(y[1], y[2])
         lo, hi = self._V(u_lo, y[1], y[2]), self._V(u_hi, y[1], y[2])
         return (y[0] >= lo) & (y[0] <= hi)
 
+    def domain_points(self, n: int, seed: int = 0) -> np.ndarray:
+        """n seeded points of the domain (uniform in its volume) in (v, φ, Z): where a φ-time field
+        on it is checked (its ``sampler``)."""
+        if self.domain is None:
+            raise ValueError("these φ-time coordinates have no domain")
+        return np.asarray(self._to(jnp.asarray(self.domain.sample_points(n, seed=seed))))
+
     # -- construction helpers ---------------------------------------------------------------------
+    @staticmethod
+    def _check_domain(domain, period):
+        if domain is None:
+            return None
+        if not isinstance(domain, ToroidalDomain):
+            raise TypeError(f"domain must be a vpforms.domains.ToroidalDomain; got {type(domain).__name__}")
+        if period is None or abs(domain.period - period) > 1e-12 * period:
+            raise ValueError(f"the domain {domain.name!r} has the period 2π/{domain.nfp} in φ, the potential "
+                             f"{'none' if period is None else f'{period:.6g}'}: they must agree")
+        return domain
+
+    def _chord(self, phi, Z):
+        """U's Newton bracket (u_lo, u_hi) at (φ, Z): the box's u interval, or the domain's chord
+        of the line Z in the plane φ as u = R²/2 (NaN where the line misses the cross-section or
+        meets it in more than one interval)."""
+        if self.domain is None:
+            u_lo, u_hi = self.box[0]
+            return jnp.asarray(u_lo, float) + 0.0 * Z, jnp.asarray(u_hi, float) + 0.0 * Z
+        R_lo, R_hi, n = boundary_chord(self.domain.geometry, phi, Z)
+        one = n == 2
+        return jnp.where(one, 0.5 * R_lo * R_lo, jnp.nan), jnp.where(one, 0.5 * R_hi * R_hi, jnp.nan)
+
     def _grid(self, n):
+        """n³ check points: a grid of the box, or seeded points of the domain (as (u, φ, Z))."""
+        if self.domain is not None:
+            return self.domain.sample_points(n ** 3, seed=0)
         axes = [np.linspace(lo, hi, n) for lo, hi in self.box]
         return np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
 
     def _face_grid(self, n):
+        """(φ, Z) points where the v range is taken: of the box's faces, or of the domain's Z range
+        (4n lines in Z: the image's extremes sit at the cross-sections' tops and bottoms)."""
+        if self.domain is not None:
+            axes = [np.linspace(*self.box[1], n), np.linspace(*self.domain.bounds[2:], 4 * n)]
+            g = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 2)
+            _, _, crossings = (np.asarray(a) for a in jax.jit(jax.vmap(
+                lambda p, z: boundary_chord(self.domain.geometry, p, z)))(g[:, 0], g[:, 1]))
+            if np.any(crossings > 2):
+                i = int(np.flatnonzero(crossings > 2)[0])
+                raise PhiTimeError(
+                    f"the domain {self.domain.name!r} is not convex along R: the line Z = {g[i, 1]:.6g} of the "
+                    f"plane φ = {g[i, 0]:.6g} crosses its boundary {int(crossings[i])} times; φ-time needs one "
+                    "interval of R per (φ, Z) (U's bracket)", (np.nan, g[i, 0], g[i, 1]))
+            return g
         axes = [np.linspace(lo, hi, n) for lo, hi in self.box[1:]]
         return np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 2)
 
@@ -222,6 +292,8 @@ class PhiTimeCoordinates:
         opposite sign, or a grid point where it vanishes)."""
         a2 = jax.jit(jax.vmap(self._a2))
         g = self._grid(n)
+        if self.domain is not None:
+            return self._sign_on_domain(a2, g)
         val = np.asarray(a2(g[:, 0], g[:, 1], g[:, 2])).reshape(n, n, n)
         if not np.all(np.isfinite(val)):
             i = np.unravel_index(int(np.flatnonzero(~np.isfinite(val.ravel()))[0]), val.shape)
@@ -256,12 +328,40 @@ class PhiTimeCoordinates:
             "Trace this region by time stepping (vpforms.toroidal.toroidal_field with vpforms.scheme), "
             "or choose a box where B^φ keeps one sign.", p)
 
+    def _sign_on_domain(self, a2, g):
+        """:meth:`_sign_of_b_phi` on the domain's check points ``g`` (u, φ, Z): one sign, else
+        :class:`PhiTimeError` at a zero of B^φ between the nearest pair of opposite signs."""
+        val = np.asarray(a2(g[:, 0], g[:, 1], g[:, 2]))
+        where = f"the domain {self.domain.name!r}"
+        if not np.all(np.isfinite(val)):
+            p = g[int(np.flatnonzero(~np.isfinite(val))[0])]
+            raise PhiTimeError(f"B^φ is not finite at (u, φ, Z) = {_fmt(p)} of {where}: the potential does "
+                               "not cover the domain", p)
+        if np.all(val > 0):
+            return 1
+        if np.all(val < 0):
+            return -1
+        pos, neg = g[val > 0], g[val <= 0]
+        if len(pos):  # bisect between the nearest pair of opposite signs
+            pos, neg = pos[:2000], neg[:2000]
+            d = np.linalg.norm(pos[:, None, :] - neg[None, :, :], axis=-1)
+            i, j = np.unravel_index(int(np.argmin(d)), d.shape)
+            p, _ = _zero_between(lambda q: np.asarray(a2(q[:, 0], q[:, 1], q[:, 2])), pos[i], neg[j])
+        else:
+            p = neg[0]
+        raise PhiTimeError(
+            f"B^φ = dφ/dt changes sign in {where}: it vanishes at (u, φ, Z) = {_fmt(p)} (R = {np.sqrt(2 * p[0]):.6g}) "
+            "— a field line turns back toroidally there and φ cannot be the time. Use a domain farther from "
+            "the coils (a smaller one about the plasma), or trace by time stepping.", p)
+
     def _check_inverse(self):
         """A closed-form inverse must satisfy V(U(v, φ, Z), φ, Z) = v on the (v, φ, Z) box."""
         rng = np.random.default_rng(0)
         lo, hi = np.array(self.ybox).T
         y = rng.uniform(lo, hi, (256, 3))
         VU = jax.jit(jax.vmap(lambda v, p, z: self._V(self._U(v, p, z), p, z)))
+        if self.domain is not None:  # the image of the domain only
+            y = y[np.asarray(jax.jit(jax.vmap(self.inside))(jnp.asarray(y)))]
         got = np.asarray(VU(y[:, 0], y[:, 1], y[:, 2]))
         err = np.abs(got - y[:, 0])
         i = int(np.argmax(np.where(np.isfinite(err), err, np.inf)))
@@ -278,10 +378,11 @@ class PhiTimeCoordinates:
         to third order, and the custom_jvp below, whose rule calls U again, is exact at every order;
         the bracket also keeps U inside the u interval (NaN outside) instead of diverging."""
         V = self._V
-        u_lo, u_hi = self.box[0]
+        chord = self._chord
         max_iter = self.newton_max_iter
 
         def solve(v, phi, Z):
+            u_lo, u_hi = chord(phi, Z)
             f_lo, f_hi = V(u_lo, phi, Z) - v, V(u_hi, phi, Z) - v
             ok = (f_lo <= 0) & (f_hi >= 0)
             den = jnp.where(f_hi - f_lo > 0, f_hi - f_lo, 1.0)
@@ -305,7 +406,7 @@ class PhiTimeCoordinates:
                         | (hi - lo <= 4e-16 * jnp.abs(u)))
                 return new, lo, hi, it + 1, done
 
-            init = (u0, jnp.asarray(u_lo, float), jnp.asarray(u_hi, float), jnp.int32(0), ~ok)
+            init = (u0, jnp.asarray(u_lo, float) + 0.0 * u0, jnp.asarray(u_hi, float) + 0.0 * u0, jnp.int32(0), ~ok)
             u, *_ = lax.while_loop(cond, body, init)
             return jnp.where(ok, u, jnp.nan)
 
@@ -333,7 +434,7 @@ class PhiTimeCoordinates:
     def describe(self) -> str:
         return (f"phi-time (v, φ, Z): v = {'−' if self.sign > 0 else '+'}A'_Z (toroidal flux), "
                 f"K = {'' if self.sign > 0 else '−'}A'_φ(U(v, φ, Z), φ, Z); gauge {self.gauge}; "
-                f"U by {self.inverse}")
+                f"U by {self.inverse}" + ("" if self.domain is None else f" on the domain {self.domain.name!r}"))
 
 
 class PhiTimePotential(VectorPotential):

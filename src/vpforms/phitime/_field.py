@@ -30,7 +30,7 @@ def phi_time_field(A: VectorPotential | Callable[[Any], Any], box: Any = None, *
                    u_ref: float | None = None, inverse: Scalar | None = None, a_u: str = "auto",
                    margin: float = 0.02, n_check: int = 17, name: str = "phi-time field",
                    symbols: Sequence[sp.Symbol] | None = None, grid: Sequence[int] | None = None,
-                   degree: int = 3, level_v: str | None = None, **kw: Any) -> Field:
+                   degree: int = 3, level_v: str | None = None, domain: Any = None, **kw: Any) -> Field:
     """The field-line flow of ∇×A with φ as the time, as a :class:`~vpforms.Field` in (v, φ, Z).
 
     ``A``: a (u, φ, Z) :class:`~vpforms._vecpot.VectorPotential` (e.g.
@@ -47,6 +47,13 @@ def phi_time_field(A: VectorPotential | Callable[[Any], Any], box: Any = None, *
     ``A`` may also be a :class:`~vpforms.Field` in (u, φ, Z) made from one vector potential (e.g.
     :func:`vpforms.toroidal.toroidal_field` of a spline of A, or ``spline_coil_field``): its potential
     is used.
+
+    ``domain`` (a :class:`~vpforms.domains.ToroidalDomain`, issue #38): φ as the time on a region
+    that follows the plasma instead of the box — B^φ's sign is required there only (a real
+    stellarator's box holds coils, next to which B^φ changes sign), U is bracketed by the domain's
+    chords, and with a ``grid`` K is fitted on the domain's image only
+    (:class:`PhiTimeCoordinates`, :mod:`vpforms.phitime._spline`). Each horizontal line of a
+    cross-section must meet it in one interval.
 
     ``level_v`` ("auto", "yes", "no"; default "auto" with a ``grid``, else "no"): subtract the residual
     gauge χ₀(φ, Z) = ∫_{Z_mid}^Z A_Z(u_ref, φ, Z') dZ' so that v = 0 on the surface u = u_ref. A's own
@@ -88,7 +95,7 @@ def phi_time_field(A: VectorPotential | Callable[[Any], Any], box: Any = None, *
     if is_sympy_potential(A):
         syms = _toroidal_symbols(A, symbols)
         period = 2 * np.pi / (1 if nfp is None else int(nfp))
-        if grid is None:  # a grid asks for the spline path, which steps the lambdified potential
+        if grid is None and domain is None:  # a grid or a domain: the lambdified potential, Newton's U
             try:
                 return symbolic_phi_time_field(tuple(A), syms, box, period=period, u_ref=u_ref,
                                                margin=margin, n_check=n_check, name=name, **kw)
@@ -108,12 +115,14 @@ def phi_time_field(A: VectorPotential | Callable[[Any], Any], box: Any = None, *
     level_v = ("auto" if splined else "no") if level_v is None else level_v
     with phase("the φ-time coordinates (gauge, the sign of B^φ on the box, the v range)"):  # ~3 s on a spline A
         coords = PhiTimeCoordinates(A, box, u_ref=u_ref, inverse=inverse, a_u=a_u, level_v=level_v, margin=margin,
-                                    n_check=n_check, quadrature_n=kw.get("quadrature_n", DEFAULT_N))
+                                    n_check=n_check, quadrature_n=kw.get("quadrature_n", DEFAULT_N), domain=domain)
     if splined:
         return spline_phi_time_field(coords, grid, degree=degree, name=name, **kw)
     C = PhiTimePotential(coords)
     yb = coords.ybox
     kw.setdefault("origin", (0.5 * (yb[0][0] + yb[0][1]), yb[1][0], 0.5 * (yb[2][0] + yb[2][1])))
+    if coords.domain is not None:  # the checks sample the domain's image, not its bounding box
+        kw.setdefault("sampler", coords.domain_points)
     field = Field.from_vector_potential(C, box=yb, name=name, **kw)
     field.coordinates = coords.describe()
     field.periods = (None, coords.period, None)

@@ -23,6 +23,15 @@ Newton solve, which the generated C of the native backend cannot differentiate. 
 The K samples cost one Newton solve of U per node (vectorised; on a spline of A, seconds for 10⁶
 nodes). The domain is the grid's box in (v, Z): a step that leaves it stops with
 ``RESULTS.left_domain`` on both backends.
+
+On coordinates with a ``domain`` (a region that follows the plasma, issue #38) the image of the
+domain in (v, Z) is not a rectangle: K is sampled on the grid of its bounding box, the nodes where
+U has no root (outside the image) are left out, and K is fitted on the others only (the masked fit
+of :mod:`vpforms.grids._masked`, on the runs of kept nodes along each axis). The spline is NaN on
+the cells that need a left-out node — within about (degree + 1)/2 cells of the image's edge — and a
+line that steps there fails with a non-finite step: the domain should hold the lines with that
+margin. ``field.phi_time_spline_coverage`` is the fraction of the domain's check points where the
+spline is defined; its error is measured there.
 """
 
 from __future__ import annotations
@@ -70,12 +79,20 @@ def spline_phi_time_field(coords: PhiTimeCoordinates, grid: Any, *, degree: int 
     seeded points of ``region`` (a :class:`~vpforms.domains.ToroidalDomain` in (R, φ, Z), mapped to
     (v, φ, Z); default: the (v, φ, Z) box less 10 % of its v and Z widths at each end) is ≤ tol,
     within ``max_memory`` bytes of coefficients; ``field.grid_choice`` reports it. b is compared with
-    the exact φ-time field *of the given A* (a spline of A has its own error against the coils)."""
+    the exact φ-time field *of the given A* (a spline of A has its own error against the coils).
+    On coordinates with a ``domain`` K is fitted on the domain's image only (module docstring),
+    ``region`` is required with ``tol`` (inside the domain, clear of its edge: a check point where
+    the spline is not defined counts as an infinite error), and ``phi_time_spline_error`` is
+    measured at ``n_check`` points of the domain where the spline is defined
+    (``field.phi_time_spline_coverage``: their fraction)."""
     if not 0.0 <= float(cluster) <= 1.0:
         raise ValueError(f"cluster must be in [0, 1] (0 uniform, 1 Chebyshev–Lobatto); got {cluster!r}")
     T = coords.period
     if T is None:
         raise ValueError("a φ-time spline needs a φ-periodic potential (ToroidalPotential(A, nfp))")
+    if tol is not None and coords.domain is not None and region is None:
+        raise ValueError(f"with a domain ({coords.domain.name!r}), tol needs region= (where the lines are, inside "
+                         "the domain and clear of its edge): the spline of K is not defined at the domain's edge")
     if tol is None:
         n = _grid_of(grid, degree)
         pot = _K_spline(coords, n, degree, cluster, chunk)
@@ -83,12 +100,14 @@ def spline_phi_time_field(coords: PhiTimeCoordinates, grid: Any, *, degree: int 
         n = _grid_of((24, 32, 24) if grid is None else grid, degree)
         pot, choice = _K_spline_to_tol(coords, n, degree, cluster, chunk, tol, region, max_memory)
     kw.setdefault("origin", pot.center)
+    if coords.domain is not None:  # the checks sample the domain's image where the spline is defined
+        kw.setdefault("sampler", _defined_points(coords, pot))
     field = Field.from_vector_potential(pot, box=pot.grid_box, name=name, **kw)
     field.coordinates = coords.describe() + f"; K splined on a {'×'.join(map(str, n))} grid (degree {degree})"
     field.periods = (None, T, None)
     field.phi_time = coords
     field.inside = pot.inside  # the grid's box: native emits it as the domain test
-    field.phi_time_spline_error = _b_error(coords, pot, n_check, seed)
+    field.phi_time_spline_error, field.phi_time_spline_coverage = _b_error(coords, pot, n_check, seed)
     if tol is not None:
         field.grid_choice = choice
     return field
@@ -114,29 +133,37 @@ def _K_spline(coords: PhiTimeCoordinates, n: tuple[int, int, int], degree: int, 
               chunk: int) -> SplinePotential:
     """C = (0, K, −v) with K sampled on the n grid of the (v, φ, Z) box and splined."""
     nodes = _K_nodes(coords, n, cluster)
-    return _C_spline(coords, nodes, _K_samples(coords, nodes, chunk), degree)
+    return _C_spline(coords, nodes, *_K_samples(coords, nodes, chunk), degree)
 
 
-def _K_samples(coords: PhiTimeCoordinates, nodes: tuple[np.ndarray, ...], chunk: int) -> np.ndarray:
-    """C = (0, K, −v) at the nodes, shape (3, n_v, n_φ, n_Z)."""
+def _K_samples(coords: PhiTimeCoordinates, nodes: tuple[np.ndarray, ...], chunk: int) -> tuple[np.ndarray, Any]:
+    """(C, mask): C = (0, K, −v) at the nodes, shape (3, n_v, n_φ, n_Z); mask None, or (with a
+    domain) the nodes in the domain's image (K finite)."""
     n = tuple(x.size for x in nodes)
     V, P, Z = (t.ravel() for t in np.meshgrid(*nodes, indexing="ij"))
     K = _K_batched(coords)
     with phase(f"sampling K at {V.size:,} nodes (U by Newton at each)"):
         vals = _in_blocks(lambda y: K(y[:, 0], y[:, 1], y[:, 2]), np.stack([V, P, Z], axis=1), chunk)
+    if coords.domain is not None:
+        mask = np.isfinite(vals)
+        if not mask.any():
+            raise ValueError(f"K is defined at no node of the φ-time grid: the domain {coords.domain.name!r} "
+                             "maps to no node (a finer grid)")
+        return np.stack([np.zeros(V.size), vals, -V]).reshape(3, *n), mask.reshape(n)
     if not np.all(np.isfinite(vals)):
         i = int(np.flatnonzero(~np.isfinite(vals))[0])
         raise ValueError(f"K is not finite at the node (v, φ, Z) = ({V[i]:.6g}, {P[i]:.6g}, {Z[i]:.6g}) "
                          f"of the φ-time grid: U has no root in the u interval {coords.box[0]} there")
-    return np.stack([np.zeros(V.size), vals, -V]).reshape(3, *n)
+    return np.stack([np.zeros(V.size), vals, -V]).reshape(3, *n), None
 
 
-def _C_spline(coords: PhiTimeCoordinates, nodes: tuple[np.ndarray, ...], C: np.ndarray, degree: int) -> SplinePotential:
-    """The spline potential of the samples C = (0, K, −v) on ``nodes``."""
+def _C_spline(coords: PhiTimeCoordinates, nodes: tuple[np.ndarray, ...], C: np.ndarray, mask: Any,
+              degree: int) -> SplinePotential:
+    """The spline potential of the samples C = (0, K, −v) on ``nodes`` (on ``mask``'s nodes only)."""
     n = tuple(x.size for x in nodes)
     # C_v = 0 and C_Z = −v are affine: written down, not fitted, and used themselves (pot.affine)
     return SplinePotential.from_samples(
-        nodes, C, periodic=(False, coords.period, False), degree=degree,
+        nodes, C, periodic=(False, coords.period, False), degree=degree, mask=mask,
         description=f"φ-time potential (0, K, −v), K splined on a {'×'.join(map(str, n))} (v, φ, Z) grid",
         affine=((0, 0, 0, 0), None, (0, -1, 0, 0)))
 
@@ -177,14 +204,16 @@ def _K_spline_to_tol(coords, start, degree, cluster, chunk, tol, region, max_mem
 
     def sample(g):
         nodes = _K_nodes(coords, g, cluster)
-        return nodes, _K_samples(coords, nodes, chunk)
+        return (nodes, *_K_samples(coords, nodes, chunk))
 
     def fit(data, sub):
-        nodes, C = data
-        return _C_spline(coords, tuple(x[s_] for x, s_ in zip(nodes, sub)), C[(slice(None), *sub)], degree)
+        nodes, C, mask = data
+        return _C_spline(coords, tuple(x[s_] for x, s_ in zip(nodes, sub)), C[(slice(None), *sub)],
+                         None if mask is None else mask[sub], degree)
 
-    def estimate(pot):
-        return float(np.max(np.abs(np.asarray(pot.curl(pts)) - exact)) / scale)
+    def estimate(pot):  # a check point where the spline is not defined (NaN) counts as infinite
+        err = np.abs(np.asarray(pot.curl(pts)) - exact)
+        return float(np.max(np.where(np.isnan(err), np.inf, err)) / scale)
 
     # b = (−∂_ZK, 1, ∂_vK) does not differentiate along φ: φ's share is O(h_φᵏ⁺¹)
     return refine_to_tol(sample, fit, estimate, start, degree=degree, tol=tol, periodic=(False, True, False),
@@ -267,10 +296,43 @@ def _in_blocks(fn, y: np.ndarray, chunk: int = _BLOCK) -> np.ndarray:
     return np.concatenate(out)
 
 
-def _b_error(coords: PhiTimeCoordinates, pot: Any, n: int, seed: int) -> float:
-    """max |∇×C_spline − b| / max |b| at n seeded points of the spline's box (b of the exact K)."""
-    lo, hi = np.array(pot.grid_box).T
-    y = np.random.default_rng(seed).uniform(lo, hi, (n, 3))
+def _domain_points(coords: PhiTimeCoordinates, pot: Any, n: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """(y, defined): n seeded points of the coordinates' domain in (v, φ, Z) and whether the
+    spline ``pot`` is defined (finite) at each."""
+    y = coords.domain_points(n, seed)
+    return y, np.all(np.isfinite(np.asarray(pot.curl(y))), axis=1)
+
+
+def _defined_points(coords: PhiTimeCoordinates, pot: Any):
+    """The field's sampler on a domain: (n, seed) → n seeded points of the domain's image where the
+    spline of K is defined (drawn in rounds until there are n)."""
+    def sample(n: int, seed: int) -> np.ndarray:
+        got, k = [], 0
+        while sum(len(g) for g in got) < n:
+            y, ok = _domain_points(coords, pot, 2 * n, seed + 7919 * k)
+            got.append(y[ok])
+            k += 1
+            if k == 20:
+                raise ValueError(f"the spline of K is defined at too few points of the domain "
+                                 f"{coords.domain.name!r}: a finer grid of K, or a larger domain")
+        return np.concatenate(got)[:n]
+
+    return sample
+
+
+def _b_error(coords: PhiTimeCoordinates, pot: Any, n: int, seed: int) -> tuple[float, float]:
+    """(max |∇×C_spline − b| / max |b|, coverage) at n seeded points of the spline's box — or of
+    the coordinates' domain, mapped to (v, φ, Z), where the error is taken over the points at which
+    the spline is defined and coverage is their fraction (1 on a box). b of the exact K."""
+    if coords.domain is None:
+        lo, hi = np.array(pot.grid_box).T
+        y = np.random.default_rng(seed).uniform(lo, hi, (n, 3))
+    else:
+        y = _domain_points(coords, pot, n, seed)[0]
     exact = _b_exact(coords, y)
     got = np.asarray(pot.curl(y))
-    return float(np.max(np.abs(got - exact)) / np.max(np.abs(exact)))
+    defined = np.all(np.isfinite(got), axis=1)
+    if not defined.any():
+        return float("nan"), 0.0
+    return (float(np.max(np.abs(got[defined] - exact[defined])) / np.max(np.abs(exact[defined]))),
+            float(defined.mean()))

@@ -1,0 +1,132 @@
+"""φ as the time on a domain that follows the plasma (issue #38): B^φ's sign required on the
+domain only, U bracketed by the domain's chords, K fitted on the domain's image.
+
+The field: A = (A_u, A_φ, A_Z) in (u = R²/2, φ, Z) with A_Z = −w + c·w² (w = u − u₀), so that
+B^φ = −∂_uA'_Z = 1 − 2c·w changes sign at w = 1/(2c) — inside the box, outside the tube about the
+axis where the lines are (a coil next to a real stellarator's plasma does the same).
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import vpforms as V
+from vpforms._vecpot import CallablePotential
+from vpforms.domains import ToroidalDomain, boundary_chord
+from vpforms.phitime import PhiTimeError, from_phi_time, phi_time_field, phi_time_scheme, to_phi_time
+
+NFP = 5
+U0, C = 0.5, 0.5  # B^φ = 1 − 2C(u − U0) vanishes at u = 1.5 (R = 1.73)
+BOX = ((0.2, 1.8), (0.0, 2 * np.pi / NFP), (-0.6, 0.6))
+
+
+def _potential():
+    def A_u(u, phi, Z):
+        return 0.05 * Z * jnp.sin(NFP * phi)  # removed by the gauge χ (quadrature)
+
+    def A_phi(u, phi, Z):
+        w = u - U0
+        return 0.3 * 0.5 * (w * w + Z * Z) + 0.05 * Z * w * jnp.cos(NFP * phi)
+
+    def A_Z(u, phi, Z):
+        w = u - U0
+        return -w + C * w * w
+
+    return CallablePotential((A_u, A_phi, A_Z), (None, 2 * np.pi / NFP, None))
+
+
+def _tube(radius=0.25, nfp=NFP):
+    return ToroidalDomain.tube(lambda p: (1.0 + 0.02 * np.cos(NFP * p), 0.03 * np.sin(NFP * p)), radius, nfp=nfp,
+                               name="tube")
+
+
+@pytest.fixture(scope="module")
+def exact():
+    return phi_time_field(_potential(), BOX, domain=_tube(), name="tube φ-time")
+
+
+def test_chord_of_a_circle_and_of_a_c_shape():
+    th = 2 * np.pi * np.arange(256) / 256
+    circle = ToroidalDomain([0.0], [1.0 + 0.3 * np.cos(th)], [0.3 * np.sin(th)], name="circle")
+    for Z in (0.0, 0.1, -0.25, 0.29):
+        lo, hi, n = (float(a) for a in boundary_chord(circle.geometry, 0.0, Z))
+        half = np.sqrt(0.09 - Z * Z)  # the chord of the circle; the polygon is inside it by ≤ 0.3(1 − cos(π/256))
+        assert n == 2 and abs(lo - (1 - half)) < 3e-3 and abs(hi - (1 + half)) < 3e-3
+    assert int(boundary_chord(circle.geometry, 0.0, 0.31)[2]) == 0
+    # a U open towards +Z: the lines through its arms cross it four times, those below them twice
+    R = [0.5, 1.5, 1.5, 1.2, 1.2, 0.8, 0.8, 0.5]
+    Z = [-0.5, -0.5, 0.5, 0.5, -0.2, -0.2, 0.5, 0.5]
+    u_shape = ToroidalDomain([0.0], [R], [Z], name="U")
+    lo, hi, n = (float(a) for a in boundary_chord(u_shape.geometry, 0.0, -0.4))
+    assert (n, lo, hi) == (2, 0.5, 1.5)
+    assert int(boundary_chord(u_shape.geometry, 0.0, 0.2)[2]) == 4
+
+
+def test_the_box_is_refused_the_domain_is_not(exact):
+    with pytest.raises(PhiTimeError, match="changes sign in the box"):
+        phi_time_field(_potential(), BOX)
+    assert exact.phi_time.sign == 1 and "on the domain 'tube'" in exact.coordinates
+
+
+def test_round_trips_and_k_on_the_domain(exact):
+    c = exact.phi_time
+    x = _tube(0.24).sample_points(300, seed=3)
+    y = np.asarray(to_phi_time(exact, x))
+    back = np.asarray(from_phi_time(exact, y))
+    assert np.max(np.abs(back - x)) <= 1e-12 * np.max(np.abs(x))
+    # K at y is s·A'_φ at x; v is −s·A'_Z there (the gauge's own definition)
+    Ap = np.asarray(jax.vmap(lambda p: jnp.stack(c.Aprime(p[0], p[1], p[2])))(jnp.asarray(x)))
+    K = np.asarray(jax.vmap(lambda q: c.K(q[0], q[1], q[2]))(jnp.asarray(y)))
+    assert np.allclose(K, c.sign * Ap[:, 0], rtol=0, atol=1e-13)
+    assert np.allclose(y[:, 0], -c.sign * Ap[:, 1], rtol=0, atol=1e-13)
+    # outside the domain's chord U has no root: NaN, not a point of the refused region
+    far = np.asarray(to_phi_time(exact, np.array([[1.45, 0.3, 0.0]])))  # R = 1.70, next to B^φ = 0
+    assert not np.isfinite(np.asarray(from_phi_time(exact, far))[0, 0])
+
+
+@pytest.fixture(scope="module")
+def splined():
+    return phi_time_field(_potential(), BOX, domain=_tube(), grid=(24, 16, 24), name="tube φ-time spline")
+
+
+def test_k_fitted_on_the_image_only(splined):
+    assert 0.5 < splined.phi_time_spline_coverage < 1.0  # NaN cells at the image's edge
+    # the masked fit converges at the spline's order: b = (−∂_ZK, 1, ∂_vK) is O(h³) at degree 3
+    finer = phi_time_field(_potential(), BOX, domain=_tube(), grid=(48, 32, 48))
+    assert splined.phi_time_spline_coverage < finer.phi_time_spline_coverage < 1.0
+    assert finer.phi_time_spline_error < splined.phi_time_spline_error / 4
+    pts = splined.sample_points(64, seed=5)  # the field's checks sample where the spline is defined
+    assert np.all(np.isfinite(np.asarray(splined(pts))))
+
+
+def test_phi_exact_steps_preserve_volume_and_follow_the_exact_field(exact, splined):
+    x0 = np.array([[0.5 * 1.1 ** 2, 0.0, 0.05], [0.5 * 0.9 ** 2, 0.0, -0.05]])
+    h = 2 * np.pi / NFP / 8
+    m = phi_time_scheme(splined, "SE+SE")
+    y0 = np.asarray(to_phi_time(splined, x0))
+    J = np.asarray(jax.jacfwd(lambda y: m.step_with_status(y, h)[0])(jnp.asarray(y0[0])))
+    assert abs(np.linalg.det(J) - 1) <= 1e-12
+    ys = V.integrate(m, y0, h, 16, progress=False)
+    ye = V.integrate(phi_time_scheme(exact, "SE+SE"), y0, h, 16, progress=False)
+    assert np.all(ys.status == 0) and np.all(ye.status == 0)
+    assert np.allclose(ys.xs[:, -1, 1], y0[:, 1] + 16 * h, rtol=0, atol=1e-12)  # φ advanced by exactly 16h
+    assert np.max(np.abs(ys.xs[:, -1] - ye.xs[:, -1])) < 1e-4
+
+
+def test_bad_domains_and_arguments():
+    wrong_period = ToroidalDomain.tube(lambda p: (np.ones_like(p), np.zeros_like(p)), 0.2, nfp=3)
+    with pytest.raises(ValueError, match="period"):
+        phi_time_field(_potential(), BOX, domain=wrong_period)
+    R = np.array([0.7, 1.3, 1.3, 1.1, 1.1, 0.9, 0.9, 0.7])
+    Z = np.array([-0.3, -0.3, 0.3, 0.3, -0.1, -0.1, 0.3, 0.3])
+    u_shape = ToroidalDomain(2 * np.pi / NFP * np.arange(4) / 4, np.tile(R, (4, 1)), np.tile(Z, (4, 1)),
+                             nfp=NFP, name="U")
+    with pytest.raises(PhiTimeError, match="not convex along R"):
+        phi_time_field(_potential(), BOX, domain=u_shape)
+    with pytest.raises(TypeError, match="ToroidalDomain"):
+        phi_time_field(_potential(), BOX, domain=(0.7, 1.3))
+    with pytest.raises(ValueError, match="region"):
+        phi_time_field(_potential(), BOX, domain=_tube(), tol=1e-4)
