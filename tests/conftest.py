@@ -113,6 +113,7 @@ VERIFICATION = [
     # -- φ-time on a domain (issue #38): the steps on the K spline and on the exact field, ~25 s; the
     #   module's construction, round-trip, convergence and bad-input tests stay fast
     "tests/test_phitime_domain.py::test_phi_exact_steps_preserve_volume_and_follow_the_exact_field",
+    "tests/test_phitime_domain.py::test_w7x_with_phi_as_the_time_crosses_where_time_stepping_does",  # W7-X grids
 ]
 
 # Representatives of the matrices above that stay in the fast tier: the σ = (2,3,1) row of the

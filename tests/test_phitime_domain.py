@@ -130,3 +130,33 @@ def test_bad_domains_and_arguments():
         phi_time_field(_potential(), BOX, domain=(0.7, 1.3))
     with pytest.raises(ValueError, match="region"):
         phi_time_field(_potential(), BOX, domain=_tube(), tol=1e-4)
+
+
+def test_w7x_with_phi_as_the_time_crosses_where_time_stepping_does():
+    """W7-X (issue #38): its box is refused (B^φ changes sign next to the coils), the default domain
+    moved 0.1 m in is not; the φ-time sections on the same spline of A are those of time stepping
+    (SE+SE in t, located on the step family) to the two fields' difference — K's spline error."""
+    from vpforms.fieldlines import toroidal_section
+    from vpforms.problems.devices import default, grid_field, phi_time_grid_field
+
+    field, _ = grid_field("w7x", (48, 96, 48))
+    with pytest.raises(PhiTimeError, match="not finite .* give domain="):
+        phi_time_field(field)  # the spline's own (u, φ, Z) box: NaN off the cells of the default domain
+    pf, _ = phi_time_grid_field("w7x", (48, 96, 48), (48, 64, 48))
+    assert pf.phi_time.sign == -1  # W7-X's B^φ < 0: φ increases backwards along B
+    x0 = default("w7x").x0[:4]  # 10 … 70 % of the way from the axis to the last closed surface
+    n, periods = 40, 10
+    sol = V.integrate(phi_time_scheme(pf, "SE+SE", order=4), np.asarray(to_phi_time(pf, x0)),
+                      2 * np.pi / 5 / n, n * periods, save_every=n, progress=False)
+    assert np.all(sol.status == 0)
+    x = np.asarray(from_phi_time(pf, sol.xs[:, 1:]))
+    # the same lines followed along −B in t (φ increasing as well), crossings of φ ≡ 0 (mod 2π/5)
+    m = V.compose(V.scheme(field, "SE+SE", recover=False), order=4)
+    h = -0.05  # |dφ/dt| = |B^φ| ≈ 0.4 on these lines: ~60 steps per field period
+    sec = toroidal_section(m, x0, h, int(1.5 * periods * 2 * np.pi / 5 / (0.4 * abs(h))), phi=0.0, nfp=5,
+                           direction=1, progress=False)
+    for i in range(len(x0)):
+        mine = (sec.line == i) & (np.abs(sec.t) > 1e-12)
+        Rt, Zt = sec.R[mine][:periods], sec.Z[mine][:periods]
+        d = np.hypot(np.sqrt(2 * x[i, :len(Rt), 0]) - Rt, x[i, :len(Rt), 2] - Zt)
+        assert len(Rt) == periods and np.max(d) < 2e-3, (i, d)

@@ -66,7 +66,13 @@ def main(argv=None) -> int:
     ap.add_argument("--h", default="0.05,0.025")
     ap.add_argument("--long", type=int, default=1000, help="transits of the timed long run (default 1000)")
     ap.add_argument("--out", default=str(HERE / "results_vpforms_w7x"))
+    ap.add_argument("--figure-only", action="store_true",
+                    help="only redraw the figure from the results files (this one's JSON, simsopt's, the φ-time bench's)")
     args = ap.parse_args(argv)
+    if args.figure_only:
+        _figure(json.loads(Path(args.out + ".json").read_text()), HERE / "results_simsopt_w7x.json",
+                HERE / "w7x_error_vs_time.png")
+        return 0
 
     import jax
 
@@ -142,7 +148,15 @@ def _figure(ours: dict, simsopt_path: Path, path: Path) -> None:
     for r in ours["rows"]:
         ax.loglog(r["long_s"], r["error_max_m"], "o", color="C0")
         ax.annotate(f"{r['grid']} o{r['order']} h={r['h']:g}", (r["long_s"], r["error_max_m"]), fontsize=7)
-    ax.plot([], [], "o", color="C0", label="vpforms (grid on the domain, SE+SE)")
+    ax.plot([], [], "o", color="C0", label="vpforms (grid on the domain, SE+SE in t)")
+    phi_time = HERE / "results_w7x_phi_time.json"  # bench_w7x_phi_time.py: φ as the time on a domain
+    if phi_time.is_file():
+        for run in json.loads(phi_time.read_text())["runs"]:
+            for r in run["rows"]:
+                ax.loglog(r["long_s"], r["error_max_m"], "^", color="C2")
+                ax.annotate(f"A {run['grid_A']} K {run['grid_K']} o{r['order']} n={r['n']}",
+                            (r["long_s"], r["error_max_m"]), fontsize=6)
+        ax.plot([], [], "^", color="C2", label="vpforms φ-time (K on the plasma's domain, φ-exact SE+SE)")
     if simsopt_path.is_file():  # results_simsopt_w7x.json: parts → interp_* (runs per tol), direct_*
         s = json.loads(simsopt_path.read_text())
         for key, part in s.get("parts", {}).items():

@@ -11,13 +11,16 @@ composed to ``order`` at ``n`` steps per field period (natively): every n-th ste
 φ increases (B^φ < 0: backwards along B), so by stellarator symmetry the k-th period end is the
 reference's crossing 2(k + 1) with Z negated. Per setting: the error at 50 transits (max and
 median over the lines) and the wall time of 50 and of ``--long`` transits (the kernel compiled
-before). Writes ``results_w7x_phi_time.md``.
+before). Writes ``results_w7x_phi_time.md`` and ``.json`` (``--append``: adds to them), which
+``bench_vpforms_w7x.py`` draws in its figure of error against wall time.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
+import resource
 import sys
 import time
 from pathlib import Path
@@ -40,6 +43,7 @@ def main(argv=None) -> int:
     ap.add_argument("--settings", default="6:40,6:80,8:60", help="order:steps per field period, …")
     ap.add_argument("--long", type=int, default=1000)
     ap.add_argument("--out", default=str(HERE / "results_w7x_phi_time.md"))
+    ap.add_argument("--append", action="store_true", help="add this run's table to the results file")
     args = ap.parse_args(argv)
 
     import vpforms
@@ -83,11 +87,22 @@ def main(argv=None) -> int:
         f"default domain, built in {t_A:.1f} s, B error {err_A:.1e} there; K: {args.grid_K} on the default domain moved "
         f"{args.inset:g} m inward, built in {t_K:.1f} s, b error {pf.phi_time_spline_error:.1e} where defined "
         f"({pf.phi_time_spline_coverage:.0%} of the domain). 20 lines, error on the bean planes against simsopt's "
-        "tol-1e-12 reference.", "",
+        f"tol-1e-12 reference. Peak RSS {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MB.", "",
         f"| order | steps per period | error@50 max (m) | median (m) | failed | 50 transits s | {args.long} transits s | failed |",
         "|---|---|---|---|---|---|---|---|"]
     lines += [f"| {o} | {n} | {a:.2e} | {b:.2e} | {f} | {t1:.2f} | {t2:.1f} | {f2} |" for o, n, a, b, f, t1, t2, f2 in rows]
-    Path(args.out).write_text("\n".join(lines) + "\n")
+    text = "\n".join(lines) + "\n"
+    if args.append and Path(args.out).is_file():
+        text = Path(args.out).read_text() + "\n" + "\n".join(lines[2:]) + "\n"
+    Path(args.out).write_text(text)
+    js = Path(args.out).with_suffix(".json")
+    runs = json.loads(js.read_text())["runs"] if args.append and js.is_file() else []
+    runs.append({"grid_A": args.grid_A, "grid_K": args.grid_K, "inset": args.inset, "build_A_s": t_A, "build_K_s": t_K,
+                 "A_error": err_A, "K_error": pf.phi_time_spline_error, "load_before": load,
+                 "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+                 "rows": [dict(zip(("order", "n", "error_max_m", "error_median_m", "failed", "t50_s", "long_s",
+                                    "long_failed"), r)) for r in rows], "long_transits": args.long})
+    js.write_text(json.dumps({"tool": "vpforms φ-time", "version": vpforms.__version__, "runs": runs}, indent=1))
     print("\n".join(lines))
     return 0
 

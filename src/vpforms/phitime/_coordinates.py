@@ -298,7 +298,9 @@ class PhiTimeCoordinates:
         if not np.all(np.isfinite(val)):
             i = np.unravel_index(int(np.flatnonzero(~np.isfinite(val.ravel()))[0]), val.shape)
             p = g.reshape(n, n, n, 3)[i]
-            raise PhiTimeError(f"B^φ is not finite at (u, φ, Z) = {_fmt(p)} of the box {self.box}", p)
+            raise PhiTimeError(f"B^φ is not finite at (u, φ, Z) = {_fmt(p)} of the box {self.box}: the potential "
+                               "is not defined there (a spline of A that follows a domain is NaN off it) — give "
+                               "domain=, the region where the lines are", p)
         if np.all(val > 0):
             return 1
         if np.all(val < 0):

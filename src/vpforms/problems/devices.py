@@ -40,11 +40,13 @@ import numpy as np
 
 from ..coils import device, device_axis, device_data, device_domain
 from ..domains import ToroidalDomain
+from ..phitime import phi_time_field
 from ..toroidal import box_from_cylindrical, to_toroidal, toroidal_field
 from ._base import Problem
 from .coil_fields import spline_coil_field
 
-__all__ = ["DIVERTOR_INSET", "GRID", "default", "divertor_wall", "grid_box", "grid_field", "make"]
+__all__ = ["DIVERTOR_INSET", "GRID", "PHI_TIME_INSET", "default", "divertor_wall", "grid_box", "grid_field", "make",
+           "phi_time_grid_field"]
 
 SOURCE = ("vacuum field of the device's filamentary coils as shipped by simsopt (simsopt.configs.get_data; "
           "benchmarks/peers/make_devices.py), Hanson–Hirshman segments traced directly, no grid")
@@ -162,6 +164,11 @@ def divertor_wall(name: str = "w7x", inset: float | None = None) -> ToroidalDoma
         if key not in DIVERTOR_INSET:
             raise ValueError(f"{key}: no default divertor inset (known: {', '.join(DIVERTOR_INSET)}); give inset= (m)")
         inset = DIVERTOR_INSET[key]
+    return _inset_domain(key, inset, "divertor-like wall")
+
+
+def _inset_domain(key: str, inset: float, what: str) -> ToroidalDomain:
+    """The default domain of ``key`` moved ``inset`` m inward along its in-plane normals."""
     inset = float(inset)
     if not (np.isfinite(inset) and inset > 0):
         raise ValueError(f"inset must be > 0 (m, inward); got {inset}")
@@ -173,4 +180,48 @@ def divertor_wall(name: str = "w7x", inset: float | None = None) -> ToroidalDoma
     t = np.hypot(tR, tZ)
     nR, nZ = orient * tZ / t, -orient * tR / t  # the outward normal
     return ToroidalDomain(dom.phis, R - inset * nR, Z - inset * nZ, nfp=dom.nfp,
-                          name=f"{key} divertor-like wall (default domain moved {inset:g} m inward)")
+                          name=f"{key} {what} (default domain moved {inset:g} m inward)")
+
+
+#: per device: how far (m) :func:`phi_time_grid_field` moves the default domain inward for φ as the
+#: time. W7-X: B^φ changes sign within the default domain's 0.12 m of the coils, not on the domain
+#: moved 0.1 m in, which still holds the 5/5 island chain (0.19 m outside the fitted surface)
+PHI_TIME_INSET = {"w7x": 0.1}
+
+#: the default grids (n_R, n_φ, n_Z) of A and (n_v, n_φ, n_Z) of K of :func:`phi_time_grid_field`
+PHI_TIME_GRIDS = ((64, 128, 64), (64, 96, 64))
+
+
+@lru_cache(maxsize=4)
+def phi_time_grid_field(name: str, grid: tuple[int, int, int] = PHI_TIME_GRIDS[0],
+                        grid_K: tuple[int, int, int] = PHI_TIME_GRIDS[1], inset: float | None = None,
+                        degree: int = 3) -> tuple:
+    """(φ-time field, A's spline error): the device's field lines with φ as the time
+    (:func:`vpforms.phitime.phi_time_field`) — the spline of A of :func:`grid_field` (``grid``),
+    and K fitted on a ``grid_K`` grid of the image of the default domain moved ``inset`` m inward
+    (default :data:`PHI_TIME_INSET`), where B^φ keeps its sign (on the box, next to the coils, it
+    does not). The field runs natively; its steps advance φ by exactly h with
+    :func:`vpforms.phitime.phi_time_scheme`, so that sections are step ends. Map points with
+    :func:`vpforms.phitime.to_phi_time` / :func:`~vpforms.phitime.from_phi_time`. Where the
+    device's B^φ < 0 (W7-X) φ increases backwards along B: the same curves, and the sections of
+    stellarator-symmetric devices are those of a tracer along B with Z negated. Cached per
+    arguments within a process.
+
+    Raises
+    ------
+    ValueError
+        No default inset for the device (give ``inset``).
+    vpforms.phitime.PhiTimeError
+        B^φ changes sign on the inset domain (a larger inset), or a cross-section is not convex
+        along R.
+    """
+    key = device_data(name)["name"]
+    if inset is None:
+        if key not in PHI_TIME_INSET:
+            raise ValueError(f"{key}: no default φ-time inset (known: {', '.join(PHI_TIME_INSET)}); give inset= (m)")
+        inset = PHI_TIME_INSET[key]
+    field, err = grid_field(key, tuple(grid), degree=degree)
+    dom = _inset_domain(key, inset, "φ-time domain")
+    pf = phi_time_field(field, grid=tuple(grid_K), domain=dom, degree=degree,
+                        name=f"{key} φ-time (A {'x'.join(map(str, grid))}, K {'x'.join(map(str, grid_K))})")
+    return pf, err
