@@ -42,6 +42,9 @@ def main(argv=None) -> int:
     ap.add_argument("--grid-K", default="96x128x96")
     ap.add_argument("--settings", default="6:40,6:80,8:60", help="order:steps per field period, …")
     ap.add_argument("--long", type=int, default=1000)
+    ap.add_argument("--degree", type=int, default=3, help="of both splines (A and K)")
+    ap.add_argument("--fit", default="interpolate", choices=("interpolate", "quasi"),
+                    help="quasi: local quasi-interpolants (A on the whole box, coils inside)")
     ap.add_argument("--out", default=str(HERE / "results_w7x_phi_time.md"))
     ap.add_argument("--append", action="store_true", help="add this run's table to the results file")
     args = ap.parse_args(argv)
@@ -55,10 +58,11 @@ def main(argv=None) -> int:
     gA, gK = (tuple(int(v) for v in g.split("x")) for g in (args.grid_A, args.grid_K))
     load = os.getloadavg()[0]
     t = time.perf_counter()
-    field, err_A = grid_field("w7x", gA)
+    field, err_A = grid_field("w7x", gA, degree=args.degree, fit=args.fit)
     t_A = time.perf_counter() - t
     t = time.perf_counter()
-    pf = phi_time_field(field, grid=gK, domain=divertor_wall("w7x", args.inset), name="w7x φ-time")
+    pf = phi_time_field(field, grid=gK, domain=divertor_wall("w7x", args.inset), name="w7x φ-time",
+                        degree=args.degree, fit=args.fit)
     t_K = time.perf_counter() - t
     y0 = np.asarray(to_phi_time(pf, np.c_[R0 ** 2 / 2, 0 * R0, 0 * R0]))
     rows = []
@@ -83,8 +87,10 @@ def main(argv=None) -> int:
     lines = [
         "# W7-X, φ as the time on a domain that follows the plasma (issue #38)", "",
         f"`python benchmarks/peers/bench_w7x_phi_time.py {' '.join(argv if argv is not None else sys.argv[1:])}` — "
-        f"vpforms {vpforms.__version__}, {os.cpu_count()} cores, load {load:.1f} before. A: {args.grid_A} spline on the "
-        f"default domain, built in {t_A:.1f} s, B error {err_A:.1e} there; K: {args.grid_K} on the default domain moved "
+        f"vpforms {vpforms.__version__}, {os.cpu_count()} cores, load {load:.1f} before. Degree {args.degree}, "
+        + ("local quasi-interpolants. A: " if args.fit == "quasi" else "interpolating splines. A: ") +
+        f"{args.grid_A} spline " + ("on the whole box (coils inside)" if args.fit == "quasi" else "on the default domain") +
+        f", built in {t_A:.1f} s, B error {err_A:.1e} on the default domain; K: {args.grid_K} on the default domain moved "
         f"{args.inset:g} m inward, built in {t_K:.1f} s, b error {pf.phi_time_spline_error:.1e} where defined "
         f"({pf.phi_time_spline_coverage:.0%} of the domain). 20 lines, error on the bean planes against simsopt's "
         f"tol-1e-12 reference. Peak RSS {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MB.", "",
@@ -97,7 +103,7 @@ def main(argv=None) -> int:
     Path(args.out).write_text(text)
     js = Path(args.out).with_suffix(".json")
     runs = json.loads(js.read_text())["runs"] if args.append and js.is_file() else []
-    runs.append({"grid_A": args.grid_A, "grid_K": args.grid_K, "inset": args.inset, "build_A_s": t_A, "build_K_s": t_K,
+    runs.append({"grid_A": args.grid_A, "grid_K": args.grid_K, "inset": args.inset, "degree": args.degree, "fit": args.fit, "build_A_s": t_A, "build_K_s": t_K,
                  "A_error": err_A, "K_error": pf.phi_time_spline_error, "load_before": load,
                  "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
                  "rows": [dict(zip(("order", "n", "error_max_m", "error_median_m", "failed", "t50_s", "long_s",

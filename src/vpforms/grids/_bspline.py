@@ -57,6 +57,7 @@ from scipy.interpolate import BSpline, make_interp_spline
 
 from .. import _config  # noqa: F401  (float64)
 from ._masked import masked_axis_fit
+from ._quasi import knots_of, quasi_coefficients
 
 __all__ = [
     "PeriodicAntiderivative", "TensorSpline", "basis_functions", "cell_polynomials", "evaluate",
@@ -353,7 +354,7 @@ class TensorSpline:
     @classmethod
     def interpolate(cls, nodes: Sequence[Any], values: Any,
                     periodic: Sequence[bool | float | None] = (False, False, False),
-                    degree: int | Sequence[int] = 3, mask: Any = None) -> TensorSpline:
+                    degree: int | Sequence[int] = 3, mask: Any = None, fit: str = "interpolate") -> TensorSpline:
         """The spline that interpolates ``values`` (n₁, n₂, n₃) at the tensor grid of ``nodes``.
 
         Per axis ``periodic`` is False/None (not-a-knot ends), True (uniform nodes covering one
@@ -364,7 +365,14 @@ class TensorSpline:
         ``mask`` (bool, the grid's shape): the nodes whose values count (elsewhere ``values`` may be
         NaN); every grid line is fitted on its runs of kept nodes only, and the coefficients no
         run touches are NaN (:mod:`vpforms.grids._masked`): a grid that follows a domain.
+
+        ``fit``: "interpolate" (the above), or "quasi" — the local quasi-interpolant of the same
+        spline space (:mod:`vpforms.grids._quasi`: each coefficient from the k + 1 samples nearest
+        it, exact for polynomials of degree k, an error that stays near its cause; with a mask, NaN
+        where a stencil holds a left-out node). It does not pass through the samples.
         """
+        if fit not in ("interpolate", "quasi"):
+            raise ValueError(f"fit must be 'interpolate' or 'quasi', not {fit!r}")
         degrees = (degree,) * 3 if np.ndim(degree) == 0 else tuple(degree)
         if len(nodes) != 3 or len(periodic) != 3 or len(degrees) != 3:
             raise ValueError("interpolate needs three node arrays, periodic flags and degrees")
@@ -378,6 +386,20 @@ class TensorSpline:
         if not np.all(np.isfinite(c if keep is None else c[keep])):
             raise ValueError("values must be finite" + ("" if keep is None else " at the kept nodes"))
         knots, periods = [], []
+        if fit == "quasi":
+            xs = [np.asarray(n_, dtype=float) for n_ in nodes]
+            for a in range(3):
+                k = degrees[a]
+                if isinstance(k, bool) or int(k) != k or k < 3:
+                    raise ValueError(f"axis {a}: a fitted spline needs an integer degree ≥ 3; got {k!r}")
+                if xs[a].ndim != 1 or not np.all(np.isfinite(xs[a])) or np.any(np.diff(xs[a]) <= 0):
+                    raise ValueError(f"axis {a}: nodes must be a finite strictly increasing 1-D array")
+                if xs[a].size < int(k) + 1:
+                    raise ValueError(f"axis {a}: a degree-{k} quasi-interpolant needs ≥ {int(k) + 1} nodes; got {xs[a].size}")
+                periods.append(_period(periodic[a], xs[a], a))
+                knots.append(knots_of(xs[a], int(k), periods[a]))
+            coef = quasi_coefficients(xs, np.where(np.isfinite(c), c, 0.0), knots, degrees, periods, keep)
+            return cls(knots, degrees, coef, periods)
         for a in range(3):
             k = degrees[a]
             if isinstance(k, bool) or int(k) != k or k < 3:

@@ -101,7 +101,7 @@ def _check_axis(name: str, x: Any) -> np.ndarray:
 def cylindrical_potential(R: Any, phi: Any, Z: Any, *, nfp: int = 1, A: Any = None,
                           B: Any = None, degree: int = 3, source: str = "grid",
                           warn: bool = True, curl_tol: float | None = CURL_MISMATCH_LIMIT,
-                          mask: Any = None) -> tuple[SplinePotential, GridReport]:
+                          mask: Any = None, fit: str = "interpolate") -> tuple[SplinePotential, GridReport]:
     """The spline potential in (u = R²/2, φ, Z) of a field sampled on a cylindrical grid.
 
     Parameters
@@ -123,6 +123,10 @@ def cylindrical_potential(R: Any, phi: Any, Z: Any, *, nfp: int = 1, A: Any = No
         (:meth:`vpforms.domains.ToroidalDomain.node_mask`; with ``A`` only): A may be NaN
         elsewhere, each grid line is fitted on its runs of kept nodes, and the spline is NaN on
         the cells they do not cover (:mod:`vpforms.grids._masked`).
+    fit:
+        "interpolate" (the interpolating spline) or "quasi": the local quasi-interpolant of the
+        same spline (:mod:`vpforms.grids._quasi`) — for samples next to singularities (coil wires
+        in the box), whose errors the interpolant spreads along whole grid lines.
 
     Returns
     -------
@@ -181,8 +185,10 @@ def cylindrical_potential(R: Any, phi: Any, Z: Any, *, nfp: int = 1, A: Any = No
             + (" (A integrated from B)" if how == "B" else ""))
     if keep is not None:
         desc += f" (on the {int(keep.sum())} of {keep.size} nodes of a domain)"
+    if fit == "quasi":
+        desc += " (local quasi-interpolant)"
     pot = SplinePotential.from_samples((u, phi, Z), cov, periodic=(False, T, False),
-                                       degree=degree, description=desc, mask=keep)
+                                       degree=degree, description=desc, mask=keep, fit=fit)
     #: the (R, φ, Z) box of the grid (for messages)
     pot.cylindrical_box = ((float(R[0]), float(R[-1])), (float(phi[0]), float(phi[0] + T)),
                            (float(Z[0]), float(Z[-1])))

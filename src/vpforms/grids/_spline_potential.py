@@ -146,7 +146,7 @@ class SplinePotential(VectorPotential):
     def from_samples(cls, nodes: Sequence[Any], values: Any,
                      periodic: Sequence[bool | float | None] = (False, True, False),
                      degree: int = 3, description: str = "", mask: Any = None,
-                     affine: Sequence[Any] = (None, None, None)) -> SplinePotential:
+                     affine: Sequence[Any] = (None, None, None), fit: str = "interpolate") -> SplinePotential:
         """The interpolating splines of samples A_i at the tensor grid ``nodes`` (where ``mask``
         is given, on its kept nodes only: :meth:`TensorSpline.interpolate`).
 
@@ -155,7 +155,8 @@ class SplinePotential(VectorPotential):
         a number: the period). ``affine``: per component None, or the (a₀, a₁, a₂, a₃) of an affine
         function the component is (zero slope along a periodic axis): its spline is written down
         instead of fitted — the interpolant of an affine function is itself, with the Greville
-        abscissae as coefficients — and :attr:`affine` is set (its ``values`` are ignored)."""
+        abscissae as coefficients — and :attr:`affine` is set (its ``values`` are ignored). ``fit``:
+        "interpolate" or "quasi" (:meth:`TensorSpline.interpolate`)."""
         v = np.asarray(values, dtype=float)
         shape = tuple(np.size(n) for n in nodes)
         if v.shape != (3, *shape):
@@ -164,7 +165,7 @@ class SplinePotential(VectorPotential):
         fitted = [i for i in range(3) if affine[i] is None]
         if not fitted:
             raise ValueError("at least one component must be fitted (all three are affine)")
-        splines = [TensorSpline.interpolate(nodes, v[i], periodic, degree, mask) if i in fitted else None
+        splines = [TensorSpline.interpolate(nodes, v[i], periodic, degree, mask, fit) if i in fitted else None
                    for i in range(3)]
         ref = splines[fitted[0]]
         for i in range(3):

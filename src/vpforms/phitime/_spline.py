@@ -57,7 +57,7 @@ def spline_phi_time_field(coords: PhiTimeCoordinates, grid: Any, *, degree: int 
                           name: str = "phi-time field", n_check: int = 400, seed: int = 0,
                           chunk: int = 1 << 16, cluster: float = 0.0, tol: float | None = None,
                           region: ToroidalDomain | None = None, max_memory: float = DEFAULT_MAX_MEMORY,
-                          **kw: Any) -> Field:
+                          fit: str = "interpolate", **kw: Any) -> Field:
     """The φ-time field of ``coords`` with K splined on a ``grid`` = (n_v, n_φ, n_Z) tensor grid of
     the (v, φ, Z) box ``coords.ybox`` (n_φ nodes per period of φ, uniform; n_v, n_Z with the box's
     ends, drawn towards them by ``cluster``: :func:`_clustered`), degree ``degree`` ≥ 3 per axis
@@ -73,6 +73,10 @@ def spline_phi_time_field(coords: PhiTimeCoordinates, grid: Any, *, degree: int 
     ``field.phi_time_spline_error`` is max |b_spline − b| / max |b| over ``n_check`` seeded points
     of the box, b = (−∂_ZK, 1, ∂_vK) of the exact K (U by Newton). Further keywords go to
     :meth:`vpforms.Field.from_vector_potential` (``origin`` defaults to the box centre).
+
+    ``fit``: "interpolate" (K's interpolating spline) or "quasi" (its local quasi-interpolant,
+    :mod:`vpforms.grids._quasi`: at degree 5 on a domain's image it does not ring at the image's
+    edge as the interpolant does).
 
     ``tol`` (issue #39): the grid is chosen instead (``grid``: the first one tried, default
     24 × 32 × 24) by :func:`vpforms.grids.refine_to_tol` until max |b_spline − b| / max |b| at 1000
@@ -95,10 +99,10 @@ def spline_phi_time_field(coords: PhiTimeCoordinates, grid: Any, *, degree: int 
                          "the domain and clear of its edge): the spline of K is not defined at the domain's edge")
     if tol is None:
         n = _grid_of(grid, degree)
-        pot = _K_spline(coords, n, degree, cluster, chunk)
+        pot = _K_spline(coords, n, degree, cluster, chunk, fit)
     else:
         n = _grid_of((24, 32, 24) if grid is None else grid, degree)
-        pot, choice = _K_spline_to_tol(coords, n, degree, cluster, chunk, tol, region, max_memory)
+        pot, choice = _K_spline_to_tol(coords, n, degree, cluster, chunk, tol, region, max_memory, fit)
     kw.setdefault("origin", pot.center)
     if coords.domain is not None:  # the checks sample the domain's image where the spline is defined
         kw.setdefault("sampler", _defined_points(coords, pot))
@@ -130,10 +134,10 @@ def _K_nodes(coords: PhiTimeCoordinates, n: tuple[int, int, int], cluster: float
 
 
 def _K_spline(coords: PhiTimeCoordinates, n: tuple[int, int, int], degree: int, cluster: float,
-              chunk: int) -> SplinePotential:
+              chunk: int, fit: str = "interpolate") -> SplinePotential:
     """C = (0, K, −v) with K sampled on the n grid of the (v, φ, Z) box and splined."""
     nodes = _K_nodes(coords, n, cluster)
-    return _C_spline(coords, nodes, *_K_samples(coords, nodes, chunk), degree)
+    return _C_spline(coords, nodes, *_K_samples(coords, nodes, chunk), degree, fit)
 
 
 def _K_samples(coords: PhiTimeCoordinates, nodes: tuple[np.ndarray, ...], chunk: int) -> tuple[np.ndarray, Any]:
@@ -158,17 +162,17 @@ def _K_samples(coords: PhiTimeCoordinates, nodes: tuple[np.ndarray, ...], chunk:
 
 
 def _C_spline(coords: PhiTimeCoordinates, nodes: tuple[np.ndarray, ...], C: np.ndarray, mask: Any,
-              degree: int) -> SplinePotential:
+              degree: int, fit: str = "interpolate") -> SplinePotential:
     """The spline potential of the samples C = (0, K, −v) on ``nodes`` (on ``mask``'s nodes only)."""
     n = tuple(x.size for x in nodes)
     # C_v = 0 and C_Z = −v are affine: written down, not fitted, and used themselves (pot.affine)
     return SplinePotential.from_samples(
-        nodes, C, periodic=(False, coords.period, False), degree=degree, mask=mask,
+        nodes, C, periodic=(False, coords.period, False), degree=degree, mask=mask, fit=fit,
         description=f"φ-time potential (0, K, −v), K splined on a {'×'.join(map(str, n))} (v, φ, Z) grid",
         affine=((0, 0, 0, 0), None, (0, -1, 0, 0)))
 
 
-def _K_spline_to_tol(coords, start, degree, cluster, chunk, tol, region, max_memory):
+def _K_spline_to_tol(coords, start, degree, cluster, chunk, tol, region, max_memory, fit="interpolate"):
     """(spline potential, GridChoice): K's grid refined until the b error on ``region`` ≤ tol."""
     (v0, v1), _, (z0, z1) = coords.ybox
     if region is None:
@@ -209,7 +213,7 @@ def _K_spline_to_tol(coords, start, degree, cluster, chunk, tol, region, max_mem
     def fit(data, sub):
         nodes, C, mask = data
         return _C_spline(coords, tuple(x[s_] for x, s_ in zip(nodes, sub)), C[(slice(None), *sub)],
-                         None if mask is None else mask[sub], degree)
+                         None if mask is None else mask[sub], degree, fit)
 
     def estimate(pot):  # a check point where the spline is not defined (NaN) counts as infinite
         err = np.abs(np.asarray(pot.curl(pts)) - exact)

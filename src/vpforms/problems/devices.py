@@ -113,19 +113,21 @@ def grid_box(name: str) -> tuple[tuple[float, float], tuple[float, float]]:
 
 @lru_cache(maxsize=4)
 def grid_field(name: str, grid: tuple[int, int, int] = GRID, degree: int = 3, rule: str = "quadrature",
-               n_points: int | None = None) -> tuple:
+               n_points: int | None = None, fit: str = "interpolate") -> tuple:
     """(field, spline_error): the device's coils (``rule``: "quadrature" — simsopt's field —, or
     "polyline") splined on a ``grid`` = (n_R, n_φ, n_Z) grid of :func:`grid_box` over one period
     that follows the default domain (:func:`vpforms.problems.coil_fields.spline_coil_field`), in
     (u = R²/2, φ, Z), every backend (the native one included). spline_error is max |B_spline − B|
     / max |B| at 400 seeded points of the domain (the worst sit at its edge, nearest the coils).
+    ``fit="quasi"``: the local quasi-interpolant on the whole box instead (coils inside; the
+    domain is where it is checked): :func:`~vpforms.problems.coil_fields.spline_coil_field`.
     Cached per arguments within a process."""
     key = device_data(name)["name"]
     R, Z = grid_box(key)
     n_R, n_phi, n_Z = (int(g) for g in grid)
     return spline_coil_field(device(key, n_points, rule=rule), R, Z, n_R=n_R, n_phi=n_phi, n_Z=n_Z,
                              name=f"{key} ({rule} coils, {n_R}x{n_phi}x{n_Z} grid)", domain=device_domain(key),
-                             degree=degree)
+                             degree=degree, fit=fit)
 
 
 @lru_cache(maxsize=None)
@@ -195,7 +197,7 @@ PHI_TIME_GRIDS = ((64, 128, 64), (64, 96, 64))
 @lru_cache(maxsize=4)
 def phi_time_grid_field(name: str, grid: tuple[int, int, int] = PHI_TIME_GRIDS[0],
                         grid_K: tuple[int, int, int] = PHI_TIME_GRIDS[1], inset: float | None = None,
-                        degree: int = 3) -> tuple:
+                        degree: int = 3, fit: str = "interpolate") -> tuple:
     """(φ-time field, A's spline error): the device's field lines with φ as the time
     (:func:`vpforms.phitime.phi_time_field`) — the spline of A of :func:`grid_field` (``grid``),
     and K fitted on a ``grid_K`` grid of the image of the default domain moved ``inset`` m inward
@@ -204,8 +206,9 @@ def phi_time_grid_field(name: str, grid: tuple[int, int, int] = PHI_TIME_GRIDS[0
     :func:`vpforms.phitime.phi_time_scheme`, so that sections are step ends. Map points with
     :func:`vpforms.phitime.to_phi_time` / :func:`~vpforms.phitime.from_phi_time`. Where the
     device's B^φ < 0 (W7-X) φ increases backwards along B: the same curves, and the sections of
-    stellarator-symmetric devices are those of a tracer along B with Z negated. Cached per
-    arguments within a process.
+    stellarator-symmetric devices are those of a tracer along B with Z negated. ``degree`` and
+    ``fit`` ("interpolate", or "quasi": local quasi-interpolants of A on the whole box and of K,
+    :mod:`vpforms.grids._quasi`) apply to both splines. Cached per arguments within a process.
 
     Raises
     ------
@@ -220,8 +223,8 @@ def phi_time_grid_field(name: str, grid: tuple[int, int, int] = PHI_TIME_GRIDS[0
         if key not in PHI_TIME_INSET:
             raise ValueError(f"{key}: no default φ-time inset (known: {', '.join(PHI_TIME_INSET)}); give inset= (m)")
         inset = PHI_TIME_INSET[key]
-    field, err = grid_field(key, tuple(grid), degree=degree)
+    field, err = grid_field(key, tuple(grid), degree=degree, fit=fit)
     dom = _inset_domain(key, inset, "φ-time domain")
-    pf = phi_time_field(field, grid=tuple(grid_K), domain=dom, degree=degree,
+    pf = phi_time_field(field, grid=tuple(grid_K), domain=dom, degree=degree, fit=fit,
                         name=f"{key} φ-time (A {'x'.join(map(str, grid))}, K {'x'.join(map(str, grid_K))})")
     return pf, err
