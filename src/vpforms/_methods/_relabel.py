@@ -14,6 +14,7 @@ closed forms may be singular where the user's potentials are not.
 
 from __future__ import annotations
 
+import functools
 import weakref
 
 import jax.numpy as jnp
@@ -69,9 +70,8 @@ def _build(field, pi: Perm) -> Field:
         return jnp.stack([jnp.asarray(comps[k](y[0], y[1], y[2]), float) for k in idx])
 
     sampler = None
-    if field.sampler is not None or field.domain is not None:  # where a samples, relabelled: x = y·π
-        def sampler(n, seed):
-            return np.asarray(field.sample_points(n, seed), float)[..., idx]
+    if getattr(field, "sampler", None) is not None or field.domain is not None:  # where a samples, as x = y·π
+        sampler = functools.partial(_permuted_samples, field, tuple(idx))  # picklable (Dask ships methods)
 
     out = Field.from_callable(
         a_tilde, box=box, name=name, origin=origin, quadrature_n=field.quadrature_n, sampler=sampler
@@ -85,6 +85,11 @@ def _build(field, pi: Perm) -> Field:
     if inside is not None:
         out.inside = lambda x: inside(x[jnp.asarray(inv)])
     return out
+
+
+def _permuted_samples(field, idx: tuple, n: int, seed: int) -> np.ndarray:
+    """The sample points of ``field`` with their coordinates permuted (a relabelled field's sampler)."""
+    return np.asarray(field.sample_points(n, seed), float)[..., list(idx)]
 
 
 def _relabel_callables(A, pi: Perm) -> tuple:
