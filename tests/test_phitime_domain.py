@@ -160,3 +160,16 @@ def test_w7x_with_phi_as_the_time_crosses_where_time_stepping_does():
         Rt, Zt = sec.R[mine][:periods], sec.Z[mine][:periods]
         d = np.hypot(np.sqrt(2 * x[i, :len(Rt), 0]) - Rt, x[i, :len(Rt), 2] - Zt)
         assert len(Rt) == periods and np.max(d) < 2e-3, (i, d)
+
+
+def test_a_tolerance_on_a_region_inside_the_domain():
+    """tol= on a domain: K's grid is refined until the b error at points of the region (inside the
+    domain, clear of the image's edge) is below it, and the estimate is what was measured."""
+    from vpforms.phitime._spline import _b_exact
+
+    f = phi_time_field(_potential(), BOX, domain=_tube(), tol=1e-5, region=_tube(0.15), grid=(12, 8, 12))
+    assert f.grid_choice.estimate <= 1e-5
+    y = f.phi_time._to(jnp.asarray(_tube(0.15).sample_points(500, seed=11)))
+    exact = _b_exact(f.phi_time, np.asarray(y))
+    measured = np.max(np.abs(np.asarray(f(np.asarray(y))) - exact)) / np.max(np.abs(exact))
+    assert measured <= 3e-5  # other points of the region: within 3× the tolerance

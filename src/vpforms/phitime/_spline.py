@@ -172,8 +172,9 @@ def _C_spline(coords: PhiTimeCoordinates, nodes: tuple[np.ndarray, ...], C: np.n
         affine=((0, 0, 0, 0), None, (0, -1, 0, 0)))
 
 
-def _K_spline_to_tol(coords, start, degree, cluster, chunk, tol, region, max_memory, fit="interpolate"):
-    """(spline potential, GridChoice): K's grid refined until the b error on ``region`` ≤ tol."""
+def _K_spline_to_tol(coords, start, degree, cluster, chunk, tol, region, max_memory, fit_kind="interpolate"):
+    """(spline potential, GridChoice): K's grid refined until the b error on ``region`` ≤ tol
+    (``fit_kind``: "interpolate" or "quasi")."""
     (v0, v1), _, (z0, z1) = coords.ybox
     if region is None:
         lo = np.array([v0 + 0.1 * (v1 - v0), 0.0, z0 + 0.1 * (z1 - z0)])
@@ -213,7 +214,7 @@ def _K_spline_to_tol(coords, start, degree, cluster, chunk, tol, region, max_mem
     def fit(data, sub):
         nodes, C, mask = data
         return _C_spline(coords, tuple(x[s_] for x, s_ in zip(nodes, sub)), C[(slice(None), *sub)],
-                         None if mask is None else mask[sub], degree, fit)
+                         None if mask is None else mask[sub], degree, fit_kind)
 
     def estimate(pot):  # a check point where the spline is not defined (NaN) counts as infinite
         err = np.abs(np.asarray(pot.curl(pts)) - exact)
