@@ -113,7 +113,7 @@ def phi_time_field(A: VectorPotential | Callable[[Any], Any], box: Any = None, *
         raise ValueError("nfp is the potential's (ToroidalPotential(A, nfp)); do not pass it again")
     splined = grid is not None or kw.get("tol") is not None
     level_v = ("auto" if splined else "no") if level_v is None else level_v
-    with phase("the φ-time coordinates (gauge, the sign of B^φ on the box, the v range)"):  # ~3 s on a spline A
+    with phase("the φ-time coordinates (gauge, the sign of B^φ on the box or domain, the v range)"):  # ~3 s on a spline A
         coords = PhiTimeCoordinates(A, box, u_ref=u_ref, inverse=inverse, a_u=a_u, level_v=level_v, margin=margin,
                                     n_check=n_check, quadrature_n=kw.get("quadrature_n", DEFAULT_N), domain=domain)
     if splined:
