@@ -7,6 +7,8 @@ exits of the exact helix flow by a root of its closed-form height against the in
 
 from __future__ import annotations
 
+import jax
+import jax.numpy as jnp
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -361,3 +363,24 @@ def test_distances_of_many_points_run_in_blocks_and_equal_the_direct_ones():
     direct = np.asarray(tube.signed_distance(R, P, Z))
     np.testing.assert_array_equal(tube._distances(R, P, Z, block=64), direct)  # 15 blocks and a padded one
     np.testing.assert_array_equal(tube._distances(R, P, Z), direct)
+
+
+def test_the_centroid_curve_is_the_axis_of_a_tube_and_refuses_a_centroid_outside():
+    """centroid_curve: the trigonometric fit through the planes' centroids — a tube's centre is its
+    polygons' centroid, so the curve is the axis (one harmonic) at every φ, with its φ-derivative."""
+    axis = (lambda p: (1.0 + 0.05 * np.cos(NFP * p), 0.05 * np.sin(NFP * p)))
+    tube = ToroidalDomain.tube(axis, 0.1, nfp=NFP, n_phi=16, n_theta=64)
+    curve = tube.centroid_curve()
+    phi = np.linspace(-1.0, 3.0, 101)
+    R, Z = (np.asarray(a) for a in curve(phi))
+    np.testing.assert_allclose(R, 1.0 + 0.05 * np.cos(NFP * phi), atol=1e-13)
+    np.testing.assert_allclose(Z, 0.05 * np.sin(NFP * phi), atol=1e-13)
+    dR = np.asarray(jax.vmap(jax.grad(lambda p: curve(p)[0]))(jnp.asarray(phi)))
+    np.testing.assert_allclose(dR, -0.05 * NFP * np.sin(NFP * phi), atol=1e-12)
+    # a thin C whose centroid lies in its gap
+    th = np.linspace(0.3, 2 * np.pi - 0.3, 64)
+    R = np.r_[1 + 0.3 * np.cos(th), (1 + 0.25 * np.cos(th))[::-1]]
+    Z = np.r_[0.3 * np.sin(th), (0.25 * np.sin(th))[::-1]]
+    c_shape = ToroidalDomain([0.0], [R], [Z], name="C")
+    with pytest.raises(ValueError, match="centroids is outside|leaves it"):
+        c_shape.centroid_curve()

@@ -139,9 +139,10 @@ def test_w7x_with_phi_as_the_time_crosses_where_time_stepping_does():
     from vpforms.fieldlines import toroidal_section
     from vpforms.problems.devices import default, grid_field, phi_time_grid_field
 
-    field, _ = grid_field("w7x", (48, 96, 48))
+    masked, _ = grid_field("w7x", (48, 96, 48))
     with pytest.raises(PhiTimeError, match="not finite .* give domain="):
-        phi_time_field(field)  # the spline's own (u, φ, Z) box: NaN off the cells of the default domain
+        phi_time_field(masked)  # the spline's own (u, φ, Z) box: NaN off the cells of the default domain
+    field, _ = grid_field("w7x", (48, 96, 48), degree=5, fit="quasi")  # phi_time_grid_field's A
     pf, _ = phi_time_grid_field("w7x", (48, 96, 48), (48, 64, 48))
     assert pf.phi_time.sign == -1  # W7-X's B^φ < 0: φ increases backwards along B
     x0 = default("w7x").x0[:4]  # 10 … 70 % of the way from the axis to the last closed surface
@@ -173,3 +174,47 @@ def test_a_tolerance_on_a_region_inside_the_domain():
     exact = _b_exact(f.phi_time, np.asarray(y))
     measured = np.max(np.abs(np.asarray(f(np.asarray(y))) - exact)) / np.max(np.abs(exact))
     assert measured <= 3e-5  # other points of the region: within 3× the tolerance
+
+
+def test_the_gauge_starts_on_the_domains_centroid_curve():
+    """On a domain the gauge integrals start on its centroid curve (u_c(φ), Z_c(φ)) — their paths stay
+    in the plasma — and the gauge is still a gauge: v = 0 on u = u_c(φ) (levelled), and the φ-time
+    field b = (−∂_ZK, 1, ∂_vK) of K (U by Newton) is B/B^φ of ∇×A, to rounding."""
+    from vpforms.phitime._spline import _b_exact
+
+    f = phi_time_field(_potential(), BOX, domain=_tube(), level_v="yes")
+    c = f.phi_time
+    assert "centroid curve" in c.gauge and "u_c(φ)" in c.gauge
+    x = _tube(0.24).sample_points(200, seed=4)
+    R_c, _ = _tube().centroid_curve()(x[:, 1])
+    V_base = np.asarray(jax.vmap(c.V)(0.5 * R_c ** 2, jnp.asarray(x[:, 1]), jnp.asarray(x[:, 2])))
+    assert np.max(np.abs(V_base)) <= 1e-13
+    B = np.asarray(jax.vmap(lambda p: jnp.stack(_curl(_potential(), p)))(jnp.asarray(x)))
+    y = np.asarray(to_phi_time(f, x))
+    b = _b_exact(c, y)
+    gV = np.asarray(jax.vmap(jax.grad(lambda p: c.V(p[0], p[1], p[2])))(jnp.asarray(x)))
+    np.testing.assert_allclose(b[:, 0], np.sum(gV * B, axis=1) / B[:, 1], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(b[:, 2], B[:, 2] / B[:, 1], rtol=0, atol=1e-12)
+
+
+def _curl(A, p):
+    """∇×A at p in (u, φ, Z) with unit Jacobian: (∂_φA_Z − ∂_ZA_φ, ∂_ZA_u − ∂_uA_Z, ∂_uA_φ − ∂_φA_u)."""
+    J = jax.jacfwd(lambda q: jnp.stack([a(q[0], q[1], q[2]) for a in A.components()]))(p)
+    return J[2, 1] - J[1, 2], J[0, 2] - J[2, 0], J[1, 0] - J[0, 1]
+
+
+def test_a_gauge_path_off_the_potential_is_refused():
+    """A potential defined on a thinner tube than the domain: the gauge integrals' paths from the
+    centroid curve would cross where it is not finite — refused, naming the point."""
+    inner = _tube(0.1)
+    comps = _potential().components()
+
+    def clip(a):
+        def f(u, phi, Z):
+            inside = inner.inside(jnp.sqrt(2 * u), phi, Z)
+            return jnp.where(inside, a(u, phi, Z), jnp.nan)
+        return f
+
+    A = CallablePotential(tuple(clip(a) for a in comps), (None, 2 * np.pi / NFP, None))
+    with pytest.raises(PhiTimeError, match="path of the gauge integrals"):
+        phi_time_field(A, BOX, domain=_tube())

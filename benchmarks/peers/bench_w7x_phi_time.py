@@ -1,11 +1,12 @@
 """W7-X with φ as the time on a domain that follows the plasma (issue #38), against simsopt's reference.
 
     PYTHONPATH=$PWD/src python benchmarks/peers/bench_w7x_phi_time.py [--inset 0.1] [--grid-A 96x192x96]
-        [--grid-K 96x128x96] [--settings 6:40,6:80,8:60] [--long 1000]
+        [--grid-K 96x128x96] [--degree 5] [--fit quasi] [--degree-K 5] [--fit-K interpolate]
+        [--settings 6:40,6:80,8:60] [--long 1000]
 
-The spline of A follows the default domain (:func:`vpforms.problems.devices.grid_field`); K of the
-φ-time field is fitted on the image of a smaller domain (the default one moved ``--inset`` m inward,
-:func:`~vpforms.problems.devices.divertor_wall`), where B^φ keeps its sign — on the rectangular
+The field is :func:`vpforms.problems.devices.phi_time_grid_field`'s: the spline of A (by default of
+degree 5, its quasi-interpolant on the whole box), and K of the φ-time field fitted on the image of a
+smaller domain (the default one moved ``--inset`` m inward), where B^φ keeps its sign — on the rectangular
 box it does not (coils). The 20 lines of ``w7x_reference.py`` are traced with the φ-exact SE+SE
 composed to ``order`` at ``n`` steps per field period (natively): every n-th step is a bean plane.
 φ increases (B^φ < 0: backwards along B), so by stellarator symmetry the k-th period end is the
@@ -42,27 +43,30 @@ def main(argv=None) -> int:
     ap.add_argument("--grid-K", default="96x128x96")
     ap.add_argument("--settings", default="6:40,6:80,8:60", help="order:steps per field period, …")
     ap.add_argument("--long", type=int, default=1000)
-    ap.add_argument("--degree", type=int, default=3, help="of both splines (A and K)")
-    ap.add_argument("--fit", default="interpolate", choices=("interpolate", "quasi"),
-                    help="quasi: local quasi-interpolants (A on the whole box, coils inside)")
+    ap.add_argument("--degree", type=int, default=5, help="of the spline of A")
+    ap.add_argument("--fit", default="quasi", choices=("interpolate", "quasi"),
+                    help="of A; quasi: the local quasi-interpolant on the whole box, coils inside")
+    ap.add_argument("--degree-K", type=int, default=None, help="of the spline of K (default: --degree)")
+    ap.add_argument("--fit-K", default="interpolate", choices=("interpolate", "quasi"))
     ap.add_argument("--out", default=str(HERE / "results_w7x_phi_time.md"))
     ap.add_argument("--append", action="store_true", help="add this run's table to the results file")
     args = ap.parse_args(argv)
 
     import vpforms
-    from vpforms.phitime import from_phi_time, phi_time_field, phi_time_scheme, to_phi_time
-    from vpforms.problems.devices import divertor_wall, grid_field
+    from vpforms.phitime import from_phi_time, phi_time_scheme, to_phi_time
+    from vpforms.problems.devices import grid_field, phi_time_grid_field
 
     ref = load_reference(args.reference)
     R0 = np.asarray(ref["start_R"], float)
     gA, gK = (tuple(int(v) for v in g.split("x")) for g in (args.grid_A, args.grid_K))
     load = os.getloadavg()[0]
     t = time.perf_counter()
-    field, err_A = grid_field("w7x", gA, degree=args.degree, fit=args.fit)
+    grid_field("w7x", gA, degree=args.degree, fit=args.fit)  # A alone (cached: phi_time_grid_field reuses it)
     t_A = time.perf_counter() - t
     t = time.perf_counter()
-    pf = phi_time_field(field, grid=gK, domain=divertor_wall("w7x", args.inset), name="w7x φ-time",
-                        degree=args.degree, fit=args.fit)
+    k_K = args.degree if args.degree_K is None else args.degree_K
+    pf, err_A = phi_time_grid_field("w7x", gA, gK, inset=args.inset, degree=args.degree, fit=args.fit,
+                                    degree_K=k_K, fit_K=args.fit_K)
     t_K = time.perf_counter() - t
     y0 = np.asarray(to_phi_time(pf, np.c_[R0 ** 2 / 2, 0 * R0, 0 * R0]))
     rows = []
@@ -87,10 +91,11 @@ def main(argv=None) -> int:
     lines = [
         "# W7-X, φ as the time on a domain that follows the plasma (issue #38)", "",
         f"`python benchmarks/peers/bench_w7x_phi_time.py {' '.join(argv if argv is not None else sys.argv[1:])}` — "
-        f"vpforms {vpforms.__version__}, {os.cpu_count()} cores, load {load:.1f} before. Degree {args.degree}, "
-        + ("local quasi-interpolants. A: " if args.fit == "quasi" else "interpolating splines. A: ") +
-        f"{args.grid_A} spline " + ("on the whole box (coils inside)" if args.fit == "quasi" else "on the default domain") +
-        f", built in {t_A:.1f} s, B error {err_A:.1e} on the default domain; K: {args.grid_K} on the default domain moved "
+        f"vpforms {vpforms.__version__}, {os.cpu_count()} cores, load {load:.1f} before. A: {args.grid_A} spline of degree "
+        f"{args.degree}, " + ("its quasi-interpolant on the whole box (coils inside)" if args.fit == "quasi" else
+                               "interpolating, on the default domain") +
+        f", built in {t_A:.1f} s, B error {err_A:.1e} on the default domain; K: {args.grid_K} spline of degree {k_K} "
+        f"({'quasi-interpolant' if args.fit_K == 'quasi' else 'interpolating'}) on the default domain moved "
         f"{args.inset:g} m inward, built in {t_K:.1f} s, b error {pf.phi_time_spline_error:.1e} where defined "
         f"({pf.phi_time_spline_coverage:.0%} of the domain). 20 lines, error on the bean planes against simsopt's "
         f"tol-1e-12 reference. Peak RSS {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MB.", "",
@@ -103,7 +108,8 @@ def main(argv=None) -> int:
     Path(args.out).write_text(text)
     js = Path(args.out).with_suffix(".json")
     runs = json.loads(js.read_text())["runs"] if args.append and js.is_file() else []
-    runs.append({"grid_A": args.grid_A, "grid_K": args.grid_K, "inset": args.inset, "degree": args.degree, "fit": args.fit, "build_A_s": t_A, "build_K_s": t_K,
+    runs.append({"grid_A": args.grid_A, "grid_K": args.grid_K, "inset": args.inset, "degree": args.degree, "fit": args.fit,
+                 "degree_K": k_K, "fit_K": args.fit_K, "build_A_s": t_A, "build_K_s": t_K,
                  "A_error": err_A, "K_error": pf.phi_time_spline_error, "load_before": load,
                  "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
                  "rows": [dict(zip(("order", "n", "error_max_m", "error_median_m", "failed", "t50_s", "long_s",

@@ -293,6 +293,45 @@ class ToroidalDomain:
         :func:`boundary_signed_distance` take (and the native wall kernel, as NumPy)."""
         return self._geom
 
+    def centroid_curve(self, harmonics: int = 8) -> Callable[[Any], tuple[jax.Array, jax.Array]]:
+        """A smooth closed curve through the cross-sections: φ ↦ (R_c(φ), Z_c(φ)), the least-squares
+        trigonometric polynomial of period T (≤ ``harmonics`` harmonics, fewer than the planes) through
+        the planes' area centroids — C^∞ in φ, unlike the boundary (linear between planes). JAX
+        (jit, vmap, grad). It is where a gauge integral can start that must stay inside the plasma
+        (:class:`vpforms.phitime.PhiTimeCoordinates`); it is checked inside the domain at 4·P + 64 angles
+        (ValueError naming the angle otherwise: a cross-section whose centroid is outside it)."""
+        R1, Z1 = np.roll(self.R, -1, axis=1), np.roll(self.Z, -1, axis=1)
+        cross = self.R * Z1 - R1 * self.Z
+        area = 0.5 * cross.sum(axis=1)  # shoelace (signed: the orientation cancels below)
+        Rc = ((self.R + R1) * cross).sum(axis=1) / (6 * area)
+        Zc = ((self.Z + Z1) * cross).sum(axis=1) / (6 * area)
+        w = 2 * np.pi / self.period
+        m = max(0, min(int(harmonics), (self.n_planes - 1) // 2))
+        k = np.arange(1, m + 1)
+
+        def basis(phi):
+            return np.concatenate([np.ones((phi.size, 1)), np.cos(w * np.outer(phi, k)), np.sin(w * np.outer(phi, k))], 1)
+
+        coef = np.linalg.lstsq(basis(self.phis), np.c_[Rc, Zc], rcond=None)[0]
+        cR, cZ = jnp.asarray(coef[:, 0]), jnp.asarray(coef[:, 1])
+        kj = jnp.asarray(k, float)
+
+        def curve(phi):
+            phi = jnp.asarray(phi, float)
+            b = jnp.concatenate([jnp.ones(phi.shape + (1,)), jnp.cos(w * phi[..., None] * kj),
+                                 jnp.sin(w * phi[..., None] * kj)], -1)
+            return b @ cR, b @ cZ
+
+        phi = np.linspace(0.0, self.period, 4 * self.n_planes + 64, endpoint=False)
+        R, Z = (np.asarray(a) for a in curve(phi))
+        out = ~np.asarray(self.inside(R, phi, Z))
+        if out.any():
+            i = int(np.flatnonzero(out)[0])
+            raise ValueError(f"the domain {self.name!r}: the smooth curve through its cross-sections' centroids "
+                             f"leaves it at φ = {phi[i]:.6g} ((R, Z) = ({R[i]:.6g}, {Z[i]:.6g})): a cross-section "
+                             "whose centroid is outside it")
+        return curve
+
     def __repr__(self) -> str:
         r0, r1, z0, z1 = self.bounds
         return (f"ToroidalDomain({self.name!r}, {self.n_planes} planes × {self.n_vertices} vertices, nfp={self.nfp}, "

@@ -57,13 +57,17 @@ def masked_axis_fit(x: np.ndarray, t: np.ndarray, k: int, period: float | None, 
     n, L = y.shape
     m = t.size - k - 1
     out = np.full((m, L), np.nan)
-    groups: dict[tuple[int, int], list[int]] = defaultdict(list)
-    for col in range(L):
-        for run in _runs(keep[:, col], period is not None):
+    groups: dict[tuple[int, int], list[np.ndarray]] = defaultdict(list)
+    # the runs of each distinct mask column once (a grid's lines share a few hundred patterns)
+    patterns, which = np.unique(np.asarray(keep, bool).T, axis=0, return_inverse=True)
+    members = np.argsort(which.ravel(), kind="stable")
+    bounds = np.searchsorted(which.ravel()[members], np.arange(patterns.shape[0] + 1))
+    for p, pattern in enumerate(patterns):
+        for run in _runs(pattern, period is not None):
             if run[1] >= k + 1:
-                groups[run].append(col)
-    for (a, length), cols in groups.items():
-        cols = np.asarray(cols)
+                groups[run].append(members[bounds[p]:bounds[p + 1]])
+    for (a, length), parts in groups.items():
+        cols = np.sort(np.concatenate(parts))
         if length == n:
             out[:, cols] = full_fit(y[:, cols])
             continue

@@ -85,6 +85,14 @@ class PhiTimeCoordinates:
         self.A, self.box = A, box
         self.domain = self._check_domain(domain, A.periods[1])
         self.u_ref = 0.5 * (box[0][0] + box[0][1]) if u_ref is None else float(u_ref)
+        # the gauge integrals' base: on a domain (u_ref not given) the smooth curve (u_c(φ), Z_c(φ))
+        # through its cross-sections — χ's paths along u and χ₀'s along Z then stay in the plasma.
+        # From a fixed u_ref they cross, at some φ, where a spline of A that follows the domain is
+        # not defined (its coefficients there count as 0) or where a box's coils are: χ's φ- and
+        # Z-derivatives, hence K, then change on the scale of A's cells and no grid of K resolves them
+        # (the domain's cross-sections are checked convex along R first: the curve needs them, U too)
+        faces = self._face_grid(max(n_check, 33))
+        self._base = self._base_curve() if self.domain is not None and u_ref is None else None
         self.margin, self.n_check = float(margin), int(n_check)
         self.newton_max_iter = int(newton_max_iter)
         self.period = A.periods[1]
@@ -102,8 +110,17 @@ class PhiTimeCoordinates:
             def Aprime(u, phi, Z):
                 return jnp.asarray(Aphi(u, phi, Z), float), jnp.asarray(AZ(u, phi, Z), float)
         else:
-            self.gauge = f"A_u removed by χ = ∫_{{u_ref}}^u A_u du (u_ref = {self.u_ref:.6g}, quadrature n={quadrature_n})"
-            chi = A.antiderivative(0, self.u_ref, quadrature_n)
+            F = A.antiderivative(0, self.u_ref, quadrature_n)
+            if self._base is None:
+                self.gauge = f"A_u removed by χ = ∫_{{u_ref}}^u A_u du (u_ref = {self.u_ref:.6g}, quadrature n={quadrature_n})"
+                chi = F
+            else:  # χ = ∫_{u_c(φ)}^u A_u du
+                self.gauge = ("A_u removed by χ = ∫_{u_c(φ)}^u A_u du from the domain's centroid curve "
+                              f"(antiderivative n={quadrature_n})")
+                base = self._base
+
+                def chi(u, phi, Z):
+                    return F(u, phi, Z) - F(base(phi)[0], phi, Z)
             dchi = jax.grad(chi, argnums=(1, 2))
 
             def Aprime(u, phi, Z):
@@ -118,15 +135,24 @@ class PhiTimeCoordinates:
         # — Biot–Savart's, a spline's — would cut it down)
         if level_v == "auto":
             ref = grid.copy()
-            ref[:, 0] = self.u_ref
+            ref[:, 0] = self.u_ref if self._base is None else np.asarray(self._base(ref[:, 1])[0])
             vals = np.asarray(jax.jit(jax.vmap(lambda p: Aprime(p[0], p[1], p[2])[1]))(jnp.asarray(ref)))
             spread, scale = float(np.ptp(vals)), float(np.max(np.abs(vals))) or 1.0
             level_v = "no" if spread <= 1e-12 * scale else "yes"
         self.level_v = level_v == "yes"
         if self.level_v:
             z_mid = 0.5 * (box[2][0] + box[2][1])
-            chi0 = A.antiderivative(2, z_mid, quadrature_n)
-            dchi0 = jax.grad(lambda phi, Z: chi0(self.u_ref, phi, Z), argnums=(0, 1))
+            G = A.antiderivative(2, z_mid, quadrature_n)
+            if self._base is None:
+                def chi0(phi, Z):
+                    return G(self.u_ref, phi, Z)
+            else:  # χ₀ = ∫_{Z_c(φ)}^Z A_Z(u_c(φ), φ, Z') dZ' (A'_Z = A_Z on u = u_c(φ): u_c is Z-free)
+                base = self._base
+
+                def chi0(phi, Z):
+                    u_c, z_c = base(phi)
+                    return G(u_c, phi, Z) - G(u_c, phi, z_c)
+            dchi0 = jax.grad(chi0, argnums=(0, 1))
             Aprime_1 = Aprime
 
             def Aprime(u, phi, Z):
@@ -134,7 +160,8 @@ class PhiTimeCoordinates:
                 d_phi, d_Z = dchi0(phi, Z)
                 return a_phi - d_phi, a_Z - d_Z
 
-            self.gauge += "; v levelled on u = u_ref by χ₀ = ∫_{Z_mid}^Z A_Z(u_ref, φ, Z') dZ'"
+            self.gauge += ("; v levelled on u = u_ref by χ₀ = ∫_{Z_mid}^Z A_Z(u_ref, φ, Z') dZ'" if self._base is None else
+                           "; v levelled on u = u_c(φ) by χ₀ = ∫_{Z_c(φ)}^Z A_Z(u_c(φ), φ, Z') dZ'")
         self._Aprime = Aprime
 
         def a2(u, phi, Z):  # B^φ = a² = −∂_u A'_Z
@@ -151,7 +178,6 @@ class PhiTimeCoordinates:
 
         self._V = V
         V_x = jax.jit(jax.vmap(V))
-        faces = self._face_grid(max(n_check, 33))
         lo_face, hi_face = (np.asarray(a) for a in jax.jit(jax.vmap(self._chord))(faces[:, 0], faces[:, 1]))
         v_min_face = np.asarray(V_x(lo_face, faces[:, 0], faces[:, 1]))
         v_max_face = np.asarray(V_x(hi_face, faces[:, 0], faces[:, 1]))
@@ -239,6 +265,35 @@ class PhiTimeCoordinates:
         return np.asarray(self._to(jnp.asarray(self.domain.sample_points(n, seed=seed))))
 
     # -- construction helpers ---------------------------------------------------------------------
+    def _base_curve(self, n_points: int = 512, n_path: int = 8):
+        """φ ↦ (u_c(φ), Z_c(φ)): the domain's centroid curve (:meth:`ToroidalDomain.centroid_curve`)
+        as u = R²/2, the base of the gauge integrals. Checked: A is finite along the paths the
+        integrals take — from u_c(φ) to u at (φ, Z), from Z_c(φ) to Z on u = u_c(φ) — for
+        ``n_points`` seeded points of the domain (a spline of A that follows a smaller region
+        is NaN off it: :class:`PhiTimeError` naming a point)."""
+        curve = self.domain.centroid_curve()
+
+        def base(phi):
+            R, Z = curve(phi)
+            return 0.5 * R * R, Z
+
+        x = self.domain.sample_points(n_points, seed=1)
+        u_c, z_c = (np.asarray(a) for a in base(x[:, 1]))
+        t = np.linspace(0.0, 1.0, n_path)[:, None]
+        shape = (n_path, x.shape[0])
+        along_u = np.stack([u_c + t * (x[:, 0] - u_c), np.broadcast_to(x[:, 1], shape), np.broadcast_to(x[:, 2], shape)], -1)
+        along_Z = np.stack([np.broadcast_to(u_c, shape), along_u[..., 1], z_c + t * (x[:, 2] - z_c)], -1)
+        pts = np.concatenate([along_u, along_Z]).reshape(-1, 3)
+        vals = np.asarray(jax.jit(jax.vmap(lambda p: self.A(p)))(jnp.asarray(pts)))
+        bad = ~np.all(np.isfinite(vals), axis=1)
+        if bad.any():
+            p = pts[int(np.flatnonzero(bad)[0])]
+            raise PhiTimeError(
+                f"A is not finite at (u, φ, Z) = {_fmt(p)}, on a path of the gauge integrals from the centroid "
+                f"curve of the domain {self.domain.name!r} (along u at fixed (φ, Z), then along Z): give a potential "
+                "defined on a larger region (a spline of A that follows a larger domain), or u_ref", p)
+        return base
+
     @staticmethod
     def _check_domain(domain, period):
         if domain is None:

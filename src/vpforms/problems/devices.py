@@ -197,18 +197,27 @@ PHI_TIME_GRIDS = ((64, 128, 64), (64, 96, 64))
 @lru_cache(maxsize=4)
 def phi_time_grid_field(name: str, grid: tuple[int, int, int] = PHI_TIME_GRIDS[0],
                         grid_K: tuple[int, int, int] = PHI_TIME_GRIDS[1], inset: float | None = None,
-                        degree: int = 3, fit: str = "interpolate") -> tuple:
+                        degree: int = 5, fit: str = "quasi", degree_K: int | None = None,
+                        fit_K: str = "interpolate") -> tuple:
     """(φ-time field, A's spline error): the device's field lines with φ as the time
-    (:func:`vpforms.phitime.phi_time_field`) — the spline of A of :func:`grid_field` (``grid``),
-    and K fitted on a ``grid_K`` grid of the image of the default domain moved ``inset`` m inward
-    (default :data:`PHI_TIME_INSET`), where B^φ keeps its sign (on the box, next to the coils, it
-    does not). The field runs natively; its steps advance φ by exactly h with
+    (:func:`vpforms.phitime.phi_time_field`) — the spline of A of :func:`grid_field` (``grid``,
+    ``degree``, ``fit``), and K fitted on a ``grid_K`` grid (``degree_K``, default ``degree``;
+    ``fit_K``) of the image of the default domain moved ``inset`` m inward (default
+    :data:`PHI_TIME_INSET`), where B^φ keeps its sign (on the box, next to the coils, it does not).
+    The field runs natively; its steps advance φ by exactly h with
     :func:`vpforms.phitime.phi_time_scheme`, so that sections are step ends. Map points with
     :func:`vpforms.phitime.to_phi_time` / :func:`~vpforms.phitime.from_phi_time`. Where the
     device's B^φ < 0 (W7-X) φ increases backwards along B: the same curves, and the sections of
-    stellarator-symmetric devices are those of a tracer along B with Z negated. ``degree`` and
-    ``fit`` ("interpolate", or "quasi": local quasi-interpolants of A on the whole box and of K,
-    :mod:`vpforms.grids._quasi`) apply to both splines. Cached per arguments within a process.
+    stellarator-symmetric devices are those of a tracer along B with Z negated. Cached per
+    arguments within a process.
+
+    The defaults are what the sections need (issue #38, measured on W7-X): A of **degree 5** —
+    K = A'_φ(U, φ, Z) carries ∂_φχ, χ = ∫ A_u du, one degree less smooth in φ than A, so a cubic A
+    makes K only C¹ across A's φ knots and no grid of K converges to it (the b error along the lines
+    stayed at ~1e-4 from a 64 × 128 × 64 grid of K to 96 × 256 × 96; with a quintic A it falls as
+    the grid of K is refined) — fitted by the local quasi-interpolant on the whole box (``fit="quasi"``:
+    the interpolant of degree 5 rings next to the coils), and K interpolated at degree 5 on the image
+    (its quasi-interpolant leaves the cells next to the image's edge undefined).
 
     Raises
     ------
@@ -225,6 +234,8 @@ def phi_time_grid_field(name: str, grid: tuple[int, int, int] = PHI_TIME_GRIDS[0
         inset = PHI_TIME_INSET[key]
     field, err = grid_field(key, tuple(grid), degree=degree, fit=fit)
     dom = _inset_domain(key, inset, "φ-time domain")
-    pf = phi_time_field(field, grid=tuple(grid_K), domain=dom, degree=degree, fit=fit,
-                        name=f"{key} φ-time (A {'x'.join(map(str, grid))}, K {'x'.join(map(str, grid_K))})")
+    k_K = degree if degree_K is None else int(degree_K)
+    pf = phi_time_field(field, grid=tuple(grid_K), domain=dom, degree=k_K, fit=fit_K,
+                        name=f"{key} φ-time (A {'x'.join(map(str, grid))} degree {degree} {fit}, "
+                             f"K {'x'.join(map(str, grid_K))} degree {k_K} {fit_K})")
     return pf, err
