@@ -218,3 +218,18 @@ def test_a_gauge_path_off_the_potential_is_refused():
     A = CallablePotential(tuple(clip(a) for a in comps), (None, 2 * np.pi / NFP, None))
     with pytest.raises(PhiTimeError, match="path of the gauge integrals"):
         phi_time_field(A, BOX, domain=_tube())
+
+
+def test_k_is_sampled_where_the_image_is_and_nowhere_else(exact):
+    """The Newton solves of K's samples run only at the nodes in the domain's image (the chord
+    test, once per (φ, Z)): the same values, and the same NaN nodes, as Newton at every node."""
+    from vpforms.phitime._spline import _K_batched, _K_nodes, _K_samples
+
+    c = exact.phi_time
+    nodes = _K_nodes(c, (14, 8, 14), 0.0)
+    C, mask = _K_samples(c, nodes, 4096)
+    y = np.stack([t.ravel() for t in np.meshgrid(*nodes, indexing="ij")], 1)
+    every = np.asarray(_K_batched(c)(jnp.asarray(y[:, 0]), jnp.asarray(y[:, 1]), jnp.asarray(y[:, 2])))
+    assert 0.2 < mask.mean() < 0.9  # the image is not the box
+    np.testing.assert_array_equal(mask.ravel(), np.isfinite(every))
+    np.testing.assert_array_equal(C[1].ravel()[mask.ravel()], every[mask.ravel()])

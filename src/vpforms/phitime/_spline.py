@@ -146,8 +146,12 @@ def _K_samples(coords: PhiTimeCoordinates, nodes: tuple[np.ndarray, ...], chunk:
     n = tuple(x.size for x in nodes)
     V, P, Z = (t.ravel() for t in np.meshgrid(*nodes, indexing="ij"))
     K = _K_batched(coords)
-    with phase(f"sampling K at {V.size:,} nodes (U by Newton at each)"):
-        vals = _in_blocks(lambda y: K(y[:, 0], y[:, 1], y[:, 2]), np.stack([V, P, Z], axis=1), chunk)
+    todo = np.ones(V.size, bool) if coords.domain is None else _in_image(coords, nodes).ravel()
+    vals = np.full(V.size, np.nan)
+    with phase(f"sampling K at {int(todo.sum()):,} nodes (U by Newton at each)"):
+        if todo.any():
+            vals[todo] = _in_blocks(lambda y: K(y[:, 0], y[:, 1], y[:, 2]), np.stack([V, P, Z], axis=1)[todo],
+                                    chunk)
     if coords.domain is not None:
         mask = np.isfinite(vals)
         if not mask.any():
@@ -159,6 +163,22 @@ def _K_samples(coords: PhiTimeCoordinates, nodes: tuple[np.ndarray, ...], chunk:
         raise ValueError(f"K is not finite at the node (v, φ, Z) = ({V[i]:.6g}, {P[i]:.6g}, {Z[i]:.6g}) "
                          f"of the φ-time grid: U has no root in the u interval {coords.box[0]} there")
     return np.stack([np.zeros(V.size), vals, -V]).reshape(3, *n), None
+
+
+def _in_image(coords: PhiTimeCoordinates, nodes: tuple[np.ndarray, ...]) -> np.ndarray:
+    """(n_v, n_φ, n_Z) bools: the nodes in the domain's image, V(u_lo) ≤ v ≤ V(u_hi) on the chord
+    (u_lo, u_hi) of their (φ, Z) — U's own bracket test (:meth:`PhiTimeCoordinates.inside`), taken
+    once per (φ, Z): the Newton solves run at these nodes only (elsewhere K is NaN, U has no root)."""
+    P, Z = (t.ravel() for t in np.meshgrid(nodes[1], nodes[2], indexing="ij"))
+
+    def ends(phi, z):
+        u_lo, u_hi = coords._chord(phi, z)
+        return coords._V(u_lo, phi, z), coords._V(u_hi, phi, z)
+
+    lo, hi = (np.asarray(a).reshape(1, nodes[1].size, nodes[2].size)
+              for a in _batched(coords, "image", lambda: jax.jit(jax.vmap(ends)))(jnp.asarray(P), jnp.asarray(Z)))
+    v = nodes[0][:, None, None]
+    return (v >= lo) & (v <= hi)  # NaN ends (no chord): False
 
 
 def _C_spline(coords: PhiTimeCoordinates, nodes: tuple[np.ndarray, ...], C: np.ndarray, mask: Any,
