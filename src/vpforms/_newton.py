@@ -1,9 +1,10 @@
 """One scalar Newton solver, shared by every implicit equation in vpforms.
 
 The iteration runs on ``stop_gradient`` of its parameters (so ``lax.while_loop`` is never
-differentiated); a final Newton step is then taken *with* the live parameters.  At a converged
-root g(z*) = 0 that step has derivative dz/dθ = -∂_θ g / ∂_z g, the implicit-function-theorem
-derivative, exact to rounding.  Hence ``jax.jacfwd``/``jax.grad`` through a solve are exact, and a
+differentiated); the root z* is returned with the derivative of a final Newton step taken *with*
+the live parameters (its value is not added: at a converged root it is below rounding, and the
+native kernels, which need no derivative, skip it).  At a converged root g(z*) = 0 that step has
+derivative dz/dθ = -∂_θ g / ∂_z g, the implicit-function-theorem derivative, exact to rounding.  Hence ``jax.jacfwd``/``jax.grad`` through a solve are exact, and a
 method built on solves is volume preserving to rounding, not to the Newton tolerance.
 """
 
@@ -92,10 +93,12 @@ def newton_scalar(
     z_star, iters, status = lax.while_loop(cond, body, (z0, jnp.int32(0), jnp.int32(_RUNNING)))
     status = jnp.where(status == _RUNNING, RESULTS.not_converged, status).astype(jnp.int32)
 
-    # The one differentiable Newton step: value z* (to rounding), derivative = IFT derivative.
+    # The one differentiable Newton step δ = g/g' at z*, live in the parameters: the value stays z*
+    # exactly (δ − stop_gradient(δ) = 0; δ itself is below rounding at a converged root), the
+    # derivative is that of z* − δ, −∂_θ g/∂_z g: the IFT derivative. The native kernels return z*.
     z_star = lax.stop_gradient(z_star)
     ok = status == RESULTS.successful
     dz = dg(z_star, params)
-    z = z_star - g(z_star, params) / jnp.where(ok, dz, 1.0)
-    z = jnp.where(ok, z, z_star)
+    delta = g(z_star, params) / jnp.where(ok, dz, 1.0)
+    z = jnp.where(ok, z_star - (delta - lax.stop_gradient(delta)), z_star)
     return z, status, iters

@@ -2,8 +2,8 @@
 
 A :class:`~.potentials.MapStage` becomes a function that does what :mod:`vpforms._map` does for one
 point: y = x·σ, the Euler guess, the scalar solve of volpot1 for Y₃ then of volpot2 for Y₂ (the
-rules of :func:`vpforms._newton.newton_scalar`: step, stopping test, twist, divergence bound, final
-Newton step; status ``not_converged``/``twist_failure``), Y₁ from volpot3, X = Y·Σ⁻¹, and the
+rules of :func:`vpforms._newton.newton_scalar`: step, stopping test, twist, divergence bound, the
+same root; status ``not_converged``/``twist_failure``), Y₁ from volpot3, X = Y·Σ⁻¹, and the
 non-finite status. A solve whose equation is affine in its unknown (g' free of it: e.g. the SE+SE
 shears of ABC) is emitted in closed form z = −g(0)/g' with the same twist test — the root Newton
 converges to; ``engine="newton"`` forces the iteration everywhere (tests, benchmark). A
@@ -78,7 +78,8 @@ _SIMD_DECLS = "".join(
 
 def _newton_c(var: str, z0: str, g_dg: list[str], opts: tuple, tag: str) -> list[str]:
     """newton_scalar (vpforms._newton) in C: same step, stopping rule, twist and divergence tests,
-    and the final Newton step; ``g_dg`` are statements defining ``{tag}_g``/``{tag}_dg`` of z.
+    and the same root (newton_scalar's final step carries the derivative only, which a kernel does
+    not need); ``g_dg`` are statements defining ``{tag}_g``/``{tag}_dg`` of z.
     Defines ``double var`` and ``int {tag}_st``."""
     tol, mi, tw = opts
     body = "\n        ".join(g_dg)
@@ -98,8 +99,6 @@ def _newton_c(var: str, z0: str, g_dg: list[str], opts: tuple, tag: str) -> list
         "    }",
         "}",
         f"if ({tag}_st == -1) {tag}_st = {RESULTS.not_converged};",
-        f"if ({tag}_st == 0) {{ double z = {tag}_z; {{\n        {body}",
-        f"    {tag}_z = z - {tag}_g / {tag}_dg; }} }}",
         f"double {var} = {tag}_z;",
     ]
 
@@ -133,9 +132,6 @@ def _newton_fixed_c(var: str, z0: str, g_dg: list[str], opts: tuple, tag: str) -
         lines += it
     lines += [
         f"double {tag}_ok = (1.0 - {tag}_bad) * (1.0 - {tag}_run);",
-        f"{{ double z = {tag}_z;",
-        f"    {body}",
-        f"    {tag}_z = {tag}_ok > 0.5 ? z - {tag}_g / {tag}_dg : z; }}",
         f"double {var} = {tag}_z;",
     ]
     return lines
