@@ -4,8 +4,8 @@ The iteration runs on ``stop_gradient`` of its parameters (so ``lax.while_loop``
 differentiated); the root z* is returned with the derivative of a final Newton step taken *with*
 the live parameters (its value is not added: at a converged root it is below rounding, and the
 native kernels, which need no derivative, skip it).  At a converged root g(z*) = 0 that step has
-derivative dz/dθ = -∂_θ g / ∂_z g, the implicit-function-theorem derivative, exact to rounding.  Hence ``jax.jacfwd``/``jax.grad`` through a solve are exact, and a
-method built on solves is volume preserving to rounding, not to the Newton tolerance.
+derivative dz/dθ = -∂_θ g / ∂_z g, the implicit-function-theorem derivative, exact to rounding.
+Hence ``jax.jacfwd``/``jax.grad`` through a solve are exact, and a method built on solves is volume preserving to rounding, not to the Newton tolerance.
 """
 
 from __future__ import annotations

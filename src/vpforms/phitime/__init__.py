@@ -7,7 +7,9 @@ time, a → a/a², and a change of coordinates, made here so that the result is 
 free field with a vector potential — and every class, case and composition of vpforms applies.
 
 1. **Gauge A_u = 0.** χ(u, φ, Z) = ∫_{u_ref}^{u} A_u du' (the potential's own antiderivative along
-   axis 0), A' = A − ∇χ: A'_u = 0, A'_φ = A_φ − ∂_φχ, A'_Z = A_Z − ∂_Zχ (∂χ by autodiff). Then
+   axis 0; on a domain from its centroid curve u_c(φ) instead of u_ref), A' = A − ∇χ: A'_u = 0,
+   A'_φ = A_φ − ∂_φχ, A'_Z = A_Z − ∂_Zχ (∂χ by autodiff). ∂_φχ is one degree less smooth in φ
+   than A: for a spline of K, a spline of A of degree 5 (with a cubic one K is only C¹). Then
 
        a¹ = ∂_φA'_Z − ∂_ZA'_φ,   a² = B^φ = −∂_uA'_Z,   a³ = ∂_uA'_φ.
 

@@ -58,10 +58,11 @@ class PhiTimeCoordinates:
     that follows the plasma instead of the box — B^φ's sign is required on it only, U's Newton
     bracket at (φ, Z) is the domain's chord [R_lo, R_hi] (as u = R²/2) of the line Z in the plane φ
     (each such line must meet the cross-section in one interval), and ``ybox`` bounds the image of
-    the domain, which is not a rectangle in (v, Z): U (hence K) is NaN outside it. A (its gauge χ
-    from ``u_ref``, the levelling along Z on u = ``u_ref``) is still evaluated between u_ref and the
-    domain: a spline of A that follows a larger domain (whole φ lines) covers that. ``box`` stays
-    the (u, φ, Z) box of A (``u_ref`` defaults to its u midpoint).
+    the domain, which is not a rectangle in (v, Z): U (hence K) is NaN outside it. On a domain the
+    gauge χ and the levelling start on its centroid curve (u_c(φ), Z_c(φ))
+    (:meth:`~vpforms.domains.ToroidalDomain.centroid_curve`), unless ``u_ref`` is given: their
+    paths stay in the plasma, where A is accurate (A must be finite along them: checked). ``box``
+    stays the (u, φ, Z) box of A (``u_ref`` defaults to its u midpoint).
     """
 
     def __init__(self, A: VectorPotential, box: Any, *, u_ref: float | None = None,

@@ -38,7 +38,7 @@ def phi_time_field(A: VectorPotential | Callable[[Any], Any], box: Any = None, *
     with ``nfp``); ``box``: the (u, φ, Z) box (:func:`vpforms.toroidal.box_from_cylindrical`) on which
     B^φ keeps one sign (else :class:`PhiTimeError`, checked on an ``n_check``³ grid) — the Newton
     bracket of U and the domain of the field. ``u_ref``: the base of χ = ∫_{u_ref}^u A_u (default
-    the u midpoint); ``a_u``: "auto" (χ = 0 if A_u vanishes to 1e-14 relative on the grid, else
+    the u midpoint; with a ``domain``, the domain's centroid curve u_c(φ)); ``a_u``: "auto" (χ = 0 if A_u vanishes to 1e-14 relative on the grid, else
     quadrature), "zero" or "quadrature"; ``inverse``: a closed-form U(v, φ, Z) (checked) instead of
     Newton; ``margin``: the fraction of the v range dropped at each end of the (v, φ, Z) box.
     Further keywords go to :meth:`vpforms.Field.from_vector_potential` (``origin`` defaults to
