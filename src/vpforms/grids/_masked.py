@@ -12,7 +12,8 @@ in that basis are the least-squares fit of s_run at 4 points inside each cell �
 line that is kept whole is fitted as the full grid is (not-a-knot, or periodic on a periodic axis);
 a run on a periodic axis may wrap round the period (a B-spline that straddles the gap between the
 two ends of a run is left out: the run alone cannot determine it). Coefficients that no run
-touches are NaN: the spline is NaN on every cell that needs one of them (a line there is outside
+touches, or that two runs of a line touch (a B-spline reaching over a gap of fewer than k + 1 nodes),
+are NaN: the spline is NaN on every cell that needs one of them (a line there is outside
 the grid's domain).
 """
 
@@ -52,7 +53,7 @@ def masked_axis_fit(x: np.ndarray, t: np.ndarray, k: int, period: float | None, 
                     keep: np.ndarray, full_fit) -> np.ndarray:
     """Coefficients along axis 0 of the degree-k spline with knots ``t`` fitted to ``y`` (n, L)
     line by line on the runs of ``keep`` (n, L) (module docstring): shape (m, L), m = len(t) − k − 1,
-    NaN where no run touches a coefficient. ``full_fit(Y)`` fits whole lines (n, L') the way the
+    NaN where no run, or more than one, touches a coefficient. ``full_fit(Y)`` fits whole lines (n, L') the way the
     unmasked interpolation does (same knots)."""
     n, L = y.shape
     m = t.size - k - 1
@@ -66,6 +67,8 @@ def masked_axis_fit(x: np.ndarray, t: np.ndarray, k: int, period: float | None, 
         for run in _runs(pattern, period is not None):
             if run[1] >= k + 1:
                 groups[run].append(members[bounds[p]:bounds[p + 1]])
+    maps: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
+    runs_at = np.zeros((m, L), np.int16)  # how many runs of its line fitted each coefficient
     for (a, length), parts in groups.items():
         cols = np.sort(np.concatenate(parts))
         if length == n:
@@ -73,27 +76,82 @@ def masked_axis_fit(x: np.ndarray, t: np.ndarray, k: int, period: float | None, 
             continue
         idx = (a + np.arange(length)) % n
         xr = x[idx] + (period if period is not None else 0.0) * ((a + np.arange(length)) >= n)
-        s_run = make_interp_spline(xr, y[idx][:, cols], k=k, axis=0)
-        # 4 points inside each cell of the run: an overdetermined exact fit, blind to the B-splines
-        # that only touch the run at an end node (they vanish there: the run cannot fix them)
-        P = (xr[:-1, None] + np.diff(xr)[:, None] * np.array([0.1, 0.37, 0.63, 0.9])).ravel()
-        Pw = P if period is None else t[k] + np.mod(P - t[k], period)
-        D = BSpline.design_matrix(Pw, t, k).toarray()
-        if period is not None:  # c_{n+j} = c_j: fold the wrapped columns
-            D[:, :k] += D[:, n:]
-            D = D[:, :n]
-        rows = np.ones(P.size, bool)
-        if period is not None:
-            # a B-spline that straddles a short gap of the line is nonzero at both ends of the run:
-            # the run cannot fix it alone — it stays NaN, and so do the cells that need it
-            nz = D != 0
-            for j in np.flatnonzero(nz.any(axis=0)):
-                r = np.flatnonzero(nz[:, j])
-                if r[-1] - r[0] + 1 > r.size:
-                    rows &= ~nz[:, j]
-        touched = np.flatnonzero(np.any(D[rows] != 0, axis=0))
-        c, *_ = np.linalg.lstsq(D[rows][:, touched], s_run(P[rows]), rcond=None)
-        out[touched[:, None], cols[None, :]] = c
+        touched, c_of = _run_map(xr, t, k, n, period, maps, a)
+        out[np.ix_(touched, cols)] = c_of @ y[np.ix_(idx, cols)]
+        runs_at[np.ix_(touched, cols)] += 1
+    # a B-spline that reaches over a gap of fewer than k + 1 nodes into the next run was fitted by
+    # both runs, to two different values: neither run alone determines it, so it is NaN (and so are
+    # the cells next to the gap that need it)
+    out[runs_at > 1] = np.nan
     if period is not None:
         out[n:] = out[:k]
     return out
+
+
+def _run_map(xr: np.ndarray, t: np.ndarray, k: int, n: int, period: float | None,
+             maps: dict[bytes, tuple[np.ndarray, np.ndarray]], start: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """(touched, M): the coefficients that the run of nodes ``xr`` (its first node ``start``)
+    determines and the linear map M from its values to them, c[touched] = M @ y_run.
+
+    M is the least-squares fit (at 4 points inside each cell) of the run's not-a-knot interpolant,
+    a linear function of y_run. It depends only on the run's geometry — its nodes and the knots of
+    the B-splines that meet it, up to an affine map — so runs of the same shape share it (on a
+    uniform grid, every interior run of one length): ``maps`` holds it per shape (:func:`_shape`),
+    with the coefficients counted from the run's first node."""
+    key = _shape(xr, t, k, n, period, start)
+    if key not in maps:
+        touched, M = _fit_map(xr, t, k, n, period)
+        maps[key] = ((touched - start) % n if period is not None else touched - start, M)
+    rel, M = maps[key]
+    return ((rel + start) % n if period is not None else rel + start), M
+
+
+def _shape(xr: np.ndarray, t: np.ndarray, k: int, n: int, period: float | None, start: int) -> bytes:
+    """The run's geometry as bytes: its nodes and the knots of every B-spline that meets it
+    (indices relative to ``start``), relative to the run and scaled by its length, to ~3e-13
+    (:func:`_quantized`). On a periodic axis the knots t_j, |j − start| ≤ 2k + 2 … up to 2k + 2 past
+    the run's end, periodically continued (B-spline j starts within (k + 1)/2 nodes of node j)."""
+    L = xr.size
+    if period is None:  # B-spline j meets (x_a, x_b) iff t_j < x_b and t_{j+k+1} > x_a
+        j = np.arange(max(int(np.searchsorted(t, xr[0], "right")) - k - 1, 0),
+                      min(int(np.searchsorted(t, xr[-1], "left")) + k + 1, t.size))
+        knots = t[j]
+    else:  # t_{k + i + q n} = t_{k + i} + q T
+        j = np.arange(start - 2 * k - 2, start + L + 2 * k + 3)
+        q, i = np.divmod(j - k, n)
+        knots = t[k + i] + q * period
+    scale = xr[-1] - xr[0]
+    return b"".join((np.array([k, n, L, j[0] - start, j[-1] - start, period is None]).tobytes(),
+                     _quantized((xr - xr[0]) / scale), _quantized((knots - xr[0]) / scale)))
+
+
+def _fit_map(xr: np.ndarray, t: np.ndarray, k: int, n: int, period: float | None) -> tuple[np.ndarray, np.ndarray]:
+    """(touched, M) of :func:`_run_map` for one run, from its design matrix."""
+    # 4 points inside each cell of the run: an overdetermined exact fit, blind to the B-splines
+    # that only touch the run at an end node (they vanish there: the run cannot fix them)
+    P = (xr[:-1, None] + np.diff(xr)[:, None] * np.array([0.1, 0.37, 0.63, 0.9])).ravel()
+    Pw = P if period is None else t[k] + np.mod(P - t[k], period)
+    D = BSpline.design_matrix(Pw, t, k).toarray()
+    if period is not None:  # c_{n+j} = c_j: fold the wrapped columns
+        D[:, :k] += D[:, n:]
+        D = D[:, :n]
+    rows = np.ones(P.size, bool)
+    if period is not None:
+        # a B-spline that straddles a short gap of the line is nonzero at both ends of the run:
+        # the run cannot fix it alone — it stays NaN, and so do the cells that need it
+        nz = D != 0
+        first = np.argmax(nz, axis=0)
+        last = nz.shape[0] - 1 - np.argmax(nz[::-1], axis=0)
+        straddles = nz.any(axis=0) & (last - first + 1 > nz.sum(axis=0))  # its rows are not one block
+        rows &= ~nz[:, straddles].any(axis=1)
+    touched = np.flatnonzero(np.any(D[rows] != 0, axis=0))
+    # s_run(P) = S @ y_run: the interpolant of each unit vector, evaluated at the fit points
+    S = make_interp_spline(xr, np.eye(xr.size), k=k, axis=0)(P[rows])
+    return touched, np.linalg.lstsq(D[rows][:, touched], S, rcond=None)[0]
+
+
+def _quantized(a: np.ndarray) -> bytes:
+    """``a`` to ~3e-13, as bytes: equal for arrays equal to rounding. The scale is irrational so that
+    exact values (a uniform grid's nodes and knots relative to a run: fractions) never fall halfway
+    between two steps, where rounding noise would split them."""
+    return (np.round(a * (1e12 * np.pi)) + 0.0).tobytes()  # + 0.0: no −0.0
