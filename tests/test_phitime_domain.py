@@ -224,16 +224,27 @@ def test_a_gauge_path_off_the_potential_is_refused():
         phi_time_field(A, BOX, domain=_tube())
 
 
-def test_k_is_sampled_where_the_image_is_and_nowhere_else(exact):
+@pytest.mark.parametrize("refine", [3, 1])
+def test_k_is_sampled_where_the_image_is_and_nowhere_else(exact, refine, monkeypatch):
     """The Newton solves of K's samples run only at the nodes in the domain's image (the chord
-    test, once per (φ, Z)): the same values, and the same NaN nodes, as Newton at every node."""
+    test, once per (φ, Z)), from V tabulated along each line: the same values (to rounding), and
+    the same NaN nodes, as U's own solve at every node — also where the table's guess is not
+    refined enough (one Newton step: most nodes fall back to U's own solve)."""
+    import vpforms.phitime._spline as spline
     from vpforms.phitime._spline import _K_batched, _K_nodes, _K_samples
 
+    monkeypatch.setattr(spline, "_REFINE", refine)
+    fallback = []  # rows solved again by U from its chord
+    real = spline._K_batched
+    monkeypatch.setattr(spline, "_K_batched", lambda co: (lambda v, p, z: fallback.append(len(v)) or real(co)(v, p, z)))
     c = exact.phi_time
+    c.__dict__.pop("_batched_fns", None)  # the refined solve is compiled with _REFINE steps
     nodes = _K_nodes(c, (14, 8, 14), 0.0)
     C, mask = _K_samples(c, nodes, 4096)
+    assert (sum(fallback) > 0) == (refine == 1)
     y = np.stack([t.ravel() for t in np.meshgrid(*nodes, indexing="ij")], 1)
     every = np.asarray(_K_batched(c)(jnp.asarray(y[:, 0]), jnp.asarray(y[:, 1]), jnp.asarray(y[:, 2])))
     assert 0.2 < mask.mean() < 0.9  # the image is not the box
     np.testing.assert_array_equal(mask.ravel(), np.isfinite(every))
-    np.testing.assert_array_equal(C[1].ravel()[mask.ravel()], every[mask.ravel()])
+    np.testing.assert_allclose(C[1].ravel()[mask.ravel()], every[mask.ravel()], rtol=1e-13, atol=0)
+    c.__dict__.pop("_batched_fns", None)

@@ -8,7 +8,7 @@ of kept nodes. On a run x_a < … < x_b of at least k + 1 nodes the fit is the r
 interpolant s_run (scipy's ``make_interp_spline`` on the run: O(hᵏ⁺¹) up to the run's ends, using
 no value outside it). Its knots are nodes, so s_run lies in the span of the global B-splines on
 [x_a, x_b] (the global knot vector has a knot at every node of the run, at least); its coefficients
-in that basis are the least-squares fit of s_run at 4 points inside each cell — exact to rounding. A
+in that basis follow cell by cell (:func:`_fit_map`: a (k + 1)-square solve per cell) — exact to rounding. A
 line that is kept whole is fitted as the full grid is (not-a-knot, or periodic on a periodic axis);
 a run on a periodic axis may wrap round the period (a B-spline that straddles the gap between the
 two ends of a run is left out: the run alone cannot determine it). Coefficients that no run
@@ -93,8 +93,8 @@ def _run_map(xr: np.ndarray, t: np.ndarray, k: int, n: int, period: float | None
     """(touched, M): the coefficients that the run of nodes ``xr`` (its first node ``start``)
     determines and the linear map M from its values to them, c[touched] = M @ y_run.
 
-    M is the least-squares fit (at 4 points inside each cell) of the run's not-a-knot interpolant,
-    a linear function of y_run. It depends only on the run's geometry — its nodes and the knots of
+    M gives the coefficients of the run's not-a-knot interpolant (:func:`_fit_map`), a linear
+    function of y_run. It depends only on the run's geometry — its nodes and the knots of
     the B-splines that meet it, up to an affine map — so runs of the same shape share it (on a
     uniform grid, every interior run of one length): ``maps`` holds it per shape (:func:`_shape`),
     with the coefficients counted from the run's first node."""
@@ -126,28 +126,45 @@ def _shape(xr: np.ndarray, t: np.ndarray, k: int, n: int, period: float | None, 
 
 
 def _fit_map(xr: np.ndarray, t: np.ndarray, k: int, n: int, period: float | None) -> tuple[np.ndarray, np.ndarray]:
-    """(touched, M) of :func:`_run_map` for one run, from its design matrix."""
-    # 4 points inside each cell of the run: an overdetermined exact fit, blind to the B-splines
-    # that only touch the run at an end node (they vanish there: the run cannot fix them)
-    P = (xr[:-1, None] + np.diff(xr)[:, None] * np.array([0.1, 0.37, 0.63, 0.9])).ravel()
+    """(touched, M) of :func:`_run_map` for one run. On each cell of the run the k + 1 B-splines
+    that do not vanish there are a basis of the polynomials of degree k, and the run's interpolant
+    is one such polynomial (its knots are nodes): their coefficients solve a (k + 1)-square system
+    at k + 1 Chebyshev points of the cell — exact, and the same from every cell a B-spline meets.
+    One cell per B-spline is solved: the last cell of its support in the run (which fixes the k
+    B-splines after it as well)."""
+    frac = 0.5 - 0.5 * np.cos(np.pi * (2 * np.arange(k + 1) + 1) / (2 * k + 2))  # inside (0, 1)
+    P = (xr[:-1, None] + np.diff(xr)[:, None] * frac).ravel()  # cell-major: cell c is rows c(k+1) …
     Pw = P if period is None else t[k] + np.mod(P - t[k], period)
     D = BSpline.design_matrix(Pw, t, k).toarray()
     if period is not None:  # c_{n+j} = c_j: fold the wrapped columns
         D[:, :k] += D[:, n:]
         D = D[:, :n]
-    rows = np.ones(P.size, bool)
+    nz = (D != 0).reshape(xr.size - 1, k + 1, -1).any(axis=1)  # (cells, B-splines): B-spline meets cell
+    ok = np.ones(xr.size - 1, bool)
     if period is not None:
-        # a B-spline that straddles a short gap of the line is nonzero at both ends of the run:
-        # the run cannot fix it alone — it stays NaN, and so do the cells that need it
-        nz = D != 0
+        # a B-spline that straddles a short gap of the line meets both ends of the run: the run
+        # cannot fix it alone — it stays NaN, and so do the cells that need it
         first = np.argmax(nz, axis=0)
         last = nz.shape[0] - 1 - np.argmax(nz[::-1], axis=0)
-        straddles = nz.any(axis=0) & (last - first + 1 > nz.sum(axis=0))  # its rows are not one block
-        rows &= ~nz[:, straddles].any(axis=1)
-    touched = np.flatnonzero(np.any(D[rows] != 0, axis=0))
-    # s_run(P) = S @ y_run: the interpolant of each unit vector, evaluated at the fit points
-    S = make_interp_spline(xr, np.eye(xr.size), k=k, axis=0)(P[rows])
-    return touched, np.linalg.lstsq(D[rows][:, touched], S, rcond=None)[0]
+        straddles = nz.any(axis=0) & (last - first + 1 > nz.sum(axis=0))  # its cells are not one block
+        ok = ~nz[:, straddles].any(axis=1)
+    nz &= ok[:, None]
+    touched = np.flatnonzero(nz.any(axis=0))
+    # s_run = S @ y_run: the interpolant of each unit vector, at the points
+    S = make_interp_spline(xr, np.eye(xr.size), k=k, axis=0)(P)
+    M = np.full((touched.size, xr.size), np.nan)
+    col = {j: i for i, j in enumerate(touched)}
+    done = np.zeros(touched.size, bool)
+    for i, j in enumerate(touched):
+        if done[i]:
+            continue
+        c = int(np.flatnonzero(nz[:, j])[-1])  # the last cell of B-spline j in the run
+        cols = np.flatnonzero(nz[c])
+        rows = slice(c * (k + 1), (c + 1) * (k + 1))
+        at = [col[q] for q in cols]
+        M[at] = np.linalg.solve(D[rows][:, cols], S[rows])
+        done[at] = True
+    return touched, M
 
 
 def _quantized(a: np.ndarray) -> bytes:

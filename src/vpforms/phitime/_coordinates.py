@@ -43,6 +43,15 @@ def _scalarwise(f: Scalar) -> Scalar:
     return g
 
 
+def _summed(local, offset):
+    """A'(u, φ, Z) = local(u, φ, Z) + offset(φ, Z), per component (φ, Z)."""
+    def Aprime(u, phi, Z):
+        (a_phi, a_Z), (o_phi, o_Z) = local(u, phi, Z), offset(phi, Z)
+        return a_phi + o_phi, a_Z + o_Z
+
+    return Aprime
+
+
 class PhiTimeCoordinates:
     """The change of coordinates (u, φ, Z) ↔ (v, φ, Z), v = −s·A'_Z, and K (module docstring).
 
@@ -105,29 +114,36 @@ class PhiTimeCoordinates:
             vals = np.asarray(jax.jit(jax.vmap(lambda p: A(p)))(jnp.asarray(grid)))
             scale = float(np.max(np.abs(vals[:, 1:]))) or 1.0
             a_u = "zero" if float(np.max(np.abs(vals[:, 0]))) <= 1e-14 * scale else "quadrature"
+        # A' = A − ∇χ − ∇χ₀ is kept as its u-dependent part ``local`` (A − ∇ of χ's u end) plus an
+        # ``offset`` that depends on (φ, Z) only (∇ of χ's base end, −∇χ₀): K's samples take the
+        # offset once per (φ, Z) line of the grid (phitime/_spline.py)
+        def no_offset(phi, Z):
+            return 0.0 * phi, 0.0 * Z
+
         if a_u == "zero":
             self.gauge = "A_u = 0 (χ = 0)"
 
-            def Aprime(u, phi, Z):
+            def local(u, phi, Z):
                 return jnp.asarray(Aphi(u, phi, Z), float), jnp.asarray(AZ(u, phi, Z), float)
+            offset = no_offset
         else:
             F = A.antiderivative(0, self.u_ref, quadrature_n)
+            dF = jax.grad(F, argnums=(1, 2))
             if self._base is None:
                 self.gauge = f"A_u removed by χ = ∫_{{u_ref}}^u A_u du (u_ref = {self.u_ref:.6g}, quadrature n={quadrature_n})"
-                chi = F
-            else:  # χ = ∫_{u_c(φ)}^u A_u du
+                offset = no_offset
+            else:  # χ = ∫_{u_c(φ)}^u A_u du = F(u) − F(u_c(φ)): the base end's gradient is the offset
                 self.gauge = ("A_u removed by χ = ∫_{u_c(φ)}^u A_u du from the domain's centroid curve "
                               f"(antiderivative n={quadrature_n})")
                 base = self._base
+                offset = jax.grad(lambda phi, Z: F(base(phi)[0], phi, Z), argnums=(0, 1))
 
-                def chi(u, phi, Z):
-                    return F(u, phi, Z) - F(base(phi)[0], phi, Z)
-            dchi = jax.grad(chi, argnums=(1, 2))
-
-            def Aprime(u, phi, Z):
-                dphi, dZ = dchi(u, phi, Z)
+            def local(u, phi, Z):
+                dphi, dZ = dF(u, phi, Z)
                 return (jnp.asarray(Aphi(u, phi, Z), float) - dphi,
                         jnp.asarray(AZ(u, phi, Z), float) - dZ)
+
+        Aprime = _summed(local, offset)
 
         # --- 1b. the residual gauge χ₀(φ, Z) = ∫_{Z_mid}^Z A_Z(u_ref, φ, Z') dZ' -----------------
         # A'_Z(u_ref, ·) = A_Z(u_ref, ·) (χ vanishes on u = u_ref); subtracting ∇χ₀ makes
@@ -154,15 +170,16 @@ class PhiTimeCoordinates:
                     u_c, z_c = base(phi)
                     return G(u_c, phi, Z) - G(u_c, phi, z_c)
             dchi0 = jax.grad(chi0, argnums=(0, 1))
-            Aprime_1 = Aprime
+            offset_1 = offset
 
-            def Aprime(u, phi, Z):
-                a_phi, a_Z = Aprime_1(u, phi, Z)
-                d_phi, d_Z = dchi0(phi, Z)
-                return a_phi - d_phi, a_Z - d_Z
+            def offset(phi, Z):
+                (o_phi, o_Z), (d_phi, d_Z) = offset_1(phi, Z), dchi0(phi, Z)
+                return o_phi - d_phi, o_Z - d_Z
 
+            Aprime = _summed(local, offset)
             self.gauge += ("; v levelled on u = u_ref by χ₀ = ∫_{Z_mid}^Z A_Z(u_ref, φ, Z') dZ'" if self._base is None else
                            "; v levelled on u = u_c(φ) by χ₀ = ∫_{Z_c(φ)}^Z A_Z(u_c(φ), φ, Z') dZ'")
+        self._local, self._offset = local, offset
         self._Aprime = Aprime
 
         def a2(u, phi, Z):  # B^φ = a² = −∂_u A'_Z

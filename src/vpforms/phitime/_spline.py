@@ -145,13 +145,11 @@ def _K_samples(coords: PhiTimeCoordinates, nodes: tuple[np.ndarray, ...], chunk:
     domain) the nodes in the domain's image (K finite)."""
     n = tuple(x.size for x in nodes)
     V, P, Z = (t.ravel() for t in np.meshgrid(*nodes, indexing="ij"))
-    K = _K_batched(coords)
-    todo = np.ones(V.size, bool) if coords.domain is None else _in_image(coords, nodes).ravel()
+    todo, *per_node = (a.ravel() for a in _line_tables(coords, nodes, chunk))
     vals = np.full(V.size, np.nan)
     with phase(f"sampling K at {int(todo.sum()):,} nodes (U by Newton at each)"):
         if todo.any():
-            vals[todo] = _in_blocks(lambda y: K(y[:, 0], y[:, 1], y[:, 2]), np.stack([V, P, Z], axis=1)[todo],
-                                    chunk)
+            vals[todo] = _K_refined(coords, np.stack([V, P, Z, *per_node], axis=1)[todo], chunk)
     if coords.domain is not None:
         mask = np.isfinite(vals)
         if not mask.any():
@@ -165,20 +163,86 @@ def _K_samples(coords: PhiTimeCoordinates, nodes: tuple[np.ndarray, ...], chunk:
     return np.stack([np.zeros(V.size), vals, -V]).reshape(3, *n), None
 
 
-def _in_image(coords: PhiTimeCoordinates, nodes: tuple[np.ndarray, ...]) -> np.ndarray:
-    """(n_v, n_φ, n_Z) bools: the nodes in the domain's image, V(u_lo) ≤ v ≤ V(u_hi) on the chord
-    (u_lo, u_hi) of their (φ, Z) — U's own bracket test (:meth:`PhiTimeCoordinates.inside`), taken
-    once per (φ, Z): the Newton solves run at these nodes only (elsewhere K is NaN, U has no root)."""
+#: u points per (φ, Z) line of K's grid where V and ∂_uV are tabulated, for the first guess of U at
+#: the line's nodes (U's cubic Hermite interpolant in v: ~1e-6 of the chord on W7-X's lines)
+_TABLE = 16
+#: Newton steps from the table's guess (the last one gives K too); a node whose last step is not
+#: ≤ 1e-9·|u| (U's own stopping rule) is solved again by U itself, from the chord
+_REFINE = 2
+
+
+def _line_tables(coords: PhiTimeCoordinates, nodes: tuple[np.ndarray, ...], chunk: int = 8192
+                 ) -> tuple[np.ndarray, ...]:
+    """(todo, guess, u_lo, u_hi, o_φ, o_Z), each (n_v, n_φ, n_Z): the nodes where U has a root —
+    V(u_lo) ≤ v ≤ V(u_hi) on U's bracket (u_lo, u_hi) of their (φ, Z), its own test
+    (:meth:`PhiTimeCoordinates._chord`: the box's u interval, or the domain's chord), taken once per
+    (φ, Z) line: the image of the domain — U's first guess there, from V and ∂_uV tabulated at
+    :data:`_TABLE` points of the bracket (V increases along it where B^φ keeps its sign; where the
+    table does not increase the guess is NaN, and U's own solve takes the line's nodes), the
+    bracket, and the offset A' − local of the gauge (:class:`PhiTimeCoordinates`: a function of
+    (φ, Z) only)."""
     P, Z = (t.ravel() for t in np.meshgrid(nodes[1], nodes[2], indexing="ij"))
+    frac = jnp.linspace(0.0, 1.0, _TABLE)
 
-    def ends(phi, z):
+    sign = float(coords.sign)
+
+    def table(pz):  # V = −s·(local_Z(u) + offset_Z): the offset once per line
+        phi, z = pz[0], pz[1]
         u_lo, u_hi = coords._chord(phi, z)
-        return coords._V(u_lo, phi, z), coords._V(u_hi, phi, z)
+        us = (u_lo + (u_hi - u_lo) * frac).at[-1].set(u_hi)
+        o_phi, o_Z = coords._offset(phi, z)
+        a_Z, da_Z = jax.vmap(lambda u: jax.jvp(lambda t: coords._local(t, phi, z)[1], (u,), (jnp.ones_like(u),)))(us)
+        return jnp.stack([us, -sign * (a_Z + o_Z), -sign * da_Z, o_phi + 0 * us, o_Z + 0 * us])
 
-    lo, hi = (np.asarray(a).reshape(1, nodes[1].size, nodes[2].size)
-              for a in _batched(coords, "image", lambda: jax.jit(jax.vmap(ends)))(jnp.asarray(P), jnp.asarray(Z)))
-    v = nodes[0][:, None, None]
-    return (v >= lo) & (v <= hi)  # NaN ends (no chord): False
+    tab = _in_blocks(_batched(coords, "table", lambda: jax.jit(jax.vmap(table))), np.stack([P, Z], axis=1), chunk)
+    us, Vs, dVs = tab[:, 0], tab[:, 1], tab[:, 2]  # (lines, _TABLE)
+    offsets = tab[:, 3:, 0]  # (lines, 2): A' − local = (o_φ, o_Z) on the line
+    v = nodes[0]
+    todo = (v[None, :] >= Vs[:, :1]) & (v[None, :] <= Vs[:, -1:])  # NaN ends (no chord): False
+    rising = np.all(np.diff(Vs, axis=1) > 0, axis=1)
+    j = np.clip(np.sum(Vs[:, None, :] <= v[None, :, None], axis=2) - 1, 0, _TABLE - 2)  # (lines, n_v)
+    rows = np.arange(Vs.shape[0])[:, None]
+    V0, V1, u0, u1 = Vs[rows, j], Vs[rows, j + 1], us[rows, j], us[rows, j + 1]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        # U on [V0, V1] by its cubic Hermite interpolant: U = u0, u1 and U' = 1/∂_uV at the ends
+        h = V1 - V0
+        t = (v[None, :] - V0) / h
+        m0, m1 = h / dVs[rows, j], h / dVs[rows, j + 1]
+        hermite = (u0 * (1 + 2 * t) * (1 - t) ** 2 + m0 * t * (1 - t) ** 2 + u1 * t * t * (3 - 2 * t)
+                   - m1 * t * t * (1 - t))
+    guess = np.where(rising[:, None], hermite, np.nan)
+    per_line = [np.broadcast_to(a[:, None], guess.shape) for a in (us[:, 0], us[:, -1], *offsets.T)]
+    shape = (nodes[1].size, nodes[2].size, v.size)
+    return tuple(np.moveaxis(a.reshape(shape), 2, 0) for a in (todo, guess, *per_line))
+
+
+def _K_refined(coords: PhiTimeCoordinates, y: np.ndarray, chunk: int) -> np.ndarray:
+    """K at the rows (v, φ, Z, first guess of U, U's bracket u_lo, u_hi, the gauge's offset o_φ, o_Z)
+    of y: :data:`_REFINE` Newton steps from the guess. The last one evaluates A' and ∂_uA' at its
+    start u (A' = local(u) + o: :class:`PhiTimeCoordinates`) and gives
+    K = s·(A'_φ + ∂_uA'_φ·δ) at its end u + δ, exact but for O(δ²) ≤ (1e-9·|u|)² (rounding); where
+    the last step is not ≤ 1e-9·|u| (U's stopping rule: the root to rounding) or leaves the bracket,
+    U itself (:meth:`PhiTimeCoordinates.U`) from its chord — the same root."""
+    sign = float(coords.sign)
+
+    def refine(row):
+        v, phi, Z, u, u_lo, u_hi, o_phi, o_Z = (row[i] for i in range(8))
+        for _ in range(_REFINE - 1):
+            a_Z, da_Z = jax.jvp(lambda t: coords._local(t, phi, Z)[1], (u,), (jnp.ones_like(u),))
+            u = u - (-sign * (a_Z + o_Z) - v) / (-sign * da_Z)  # V = −s·A'_Z
+        (a_phi, a_Z), (da_phi, da_Z) = jax.jvp(lambda t: coords._local(t, phi, Z), (u,), (jnp.ones_like(u),))
+        a_phi, a_Z = a_phi + o_phi, a_Z + o_Z
+        step = (-sign * a_Z - v) / (-sign * da_Z)
+        u = u - step
+        ok = (jnp.abs(step) <= 1e-9 * jnp.abs(u)) & (u >= u_lo) & (u <= u_hi)
+        return jnp.stack([sign * (a_phi - da_phi * step), ok.astype(float)])
+
+    out = _in_blocks(_batched(coords, "K refined", lambda: jax.jit(jax.vmap(refine))), y, chunk)
+    vals, ok = out[:, 0], (out[:, 1] > 0.5) & np.isfinite(out[:, 0])
+    if not ok.all():
+        K = _K_batched(coords)
+        vals[~ok] = _in_blocks(lambda q: K(q[:, 0], q[:, 1], q[:, 2]), y[~ok, :3], chunk)
+    return vals
 
 
 def _C_spline(coords: PhiTimeCoordinates, nodes: tuple[np.ndarray, ...], C: np.ndarray, mask: Any,
