@@ -50,7 +50,14 @@ def main(argv=None) -> int:
     ap.add_argument("--fit-K", default="interpolate", choices=("interpolate", "quasi"))
     ap.add_argument("--out", default=str(HERE / "results_w7x_phi_time.md"))
     ap.add_argument("--append", action="store_true", help="add this run's table to the results file")
+    ap.add_argument("--jax-cache", action="store_true",
+                    help="JAX's persistent compilation cache on, as the command line has it (a second run "
+                         "then builds without compiling)")
     args = ap.parse_args(argv)
+    if args.jax_cache:
+        from vpforms._cache import enable_jax_cache
+
+        enable_jax_cache()
 
     import vpforms
     from vpforms.phitime import from_phi_time, phi_time_scheme, to_phi_time
@@ -96,7 +103,8 @@ def main(argv=None) -> int:
                                "interpolating, on the default domain") +
         f", built in {t_A:.1f} s, B error {err_A:.1e} on the default domain; K: {args.grid_K} spline of degree {k_K} "
         f"({'quasi-interpolant' if args.fit_K == 'quasi' else 'interpolating'}) on the default domain moved "
-        f"{args.inset:g} m inward, built in {t_K:.1f} s, b error {pf.phi_time_spline_error:.1e} where defined "
+        f"{args.inset:g} m inward, built in {t_K:.1f} s (JAX's compilation cache "
+        f"{'on' if args.jax_cache else 'off'}), b error {pf.phi_time_spline_error:.1e} where defined "
         f"({pf.phi_time_spline_coverage:.0%} of the domain). 20 lines, error on the bean planes against simsopt's "
         f"tol-1e-12 reference. Peak RSS {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MB.", "",
         f"| order | steps per period | error@50 max (m) | median (m) | failed | 50 transits s | {args.long} transits s | failed |",

@@ -367,7 +367,11 @@ class ToroidalDomain:
         out = np.zeros(flat.shape[0], bool)
         for lo in range(0, flat.shape[0], 8192):
             q = flat[lo:lo + 8192]
-            out[lo:lo + 8192] = np.asarray(self.inside(q[:, 0], q[:, 1], q[:, 2]))
+            n = q.shape[0]
+            # padded to a power of two (≥ 256): a few compiled shapes, not one per call (a rejection
+            # sampler asks for a new number of points every round)
+            q = np.pad(q, ((0, max(256, 1 << max(0, n - 1).bit_length()) - n), (0, 0)), mode="edge") if n else q
+            out[lo:lo + n] = np.asarray(self.inside(q[:, 0], q[:, 1], q[:, 2]))[:n]
         return out.reshape(p.shape[:-1])
 
     def wall_at(self, phi: float) -> Wall:

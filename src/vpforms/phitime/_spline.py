@@ -200,7 +200,11 @@ def _line_tables(coords: PhiTimeCoordinates, nodes: tuple[np.ndarray, ...], chun
     v = nodes[0]
     todo = (v[None, :] >= Vs[:, :1]) & (v[None, :] <= Vs[:, -1:])  # NaN ends (no chord): False
     rising = np.all(np.diff(Vs, axis=1) > 0, axis=1)
-    j = np.clip(np.sum(Vs[:, None, :] <= v[None, :, None], axis=2) - 1, 0, _TABLE - 2)  # (lines, n_v)
+    # the table's interval of every node (a line's rows increase where it is used: ``rising``)
+    j = np.zeros((Vs.shape[0], v.size), np.int64)
+    for i in np.flatnonzero(rising):
+        j[i] = np.searchsorted(Vs[i], v, side="right") - 1
+    j = np.clip(j, 0, _TABLE - 2)  # (lines, n_v)
     rows = np.arange(Vs.shape[0])[:, None]
     V0, V1, u0, u1 = Vs[rows, j], Vs[rows, j + 1], us[rows, j], us[rows, j + 1]
     with np.errstate(invalid="ignore", divide="ignore"):
