@@ -60,7 +60,10 @@ def masked_axis_fit(x: np.ndarray, t: np.ndarray, k: int, period: float | None, 
     out = np.full((m, L), np.nan)
     groups: dict[tuple[int, int], list[np.ndarray]] = defaultdict(list)
     # the runs of each distinct mask column once (a grid's lines share a few hundred patterns)
-    patterns, which = np.unique(np.asarray(keep, bool).T, axis=0, return_inverse=True)
+    cols_bits = np.ascontiguousarray(np.packbits(np.asarray(keep, bool).T, axis=1))  # a column as bytes
+    _, first, which = np.unique(cols_bits.view(np.dtype((np.void, cols_bits.shape[1]))).ravel(),
+                                return_index=True, return_inverse=True)
+    patterns = np.asarray(keep, bool).T[first]
     members = np.argsort(which.ravel(), kind="stable")
     bounds = np.searchsorted(which.ravel()[members], np.arange(patterns.shape[0] + 1))
     for p, pattern in enumerate(patterns):
