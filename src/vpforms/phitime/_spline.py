@@ -145,11 +145,12 @@ def _K_samples(coords: PhiTimeCoordinates, nodes: tuple[np.ndarray, ...], chunk:
     domain) the nodes in the domain's image (K finite)."""
     n = tuple(x.size for x in nodes)
     V, P, Z = (t.ravel() for t in np.meshgrid(*nodes, indexing="ij"))
-    todo, *per_node = (a.ravel() for a in _line_tables(coords, nodes, chunk))
+    todo, rows = _line_tables(coords, nodes, chunk)
+    todo = todo.ravel()
     vals = np.full(V.size, np.nan)
     with phase(f"sampling K at {int(todo.sum()):,} nodes (U by Newton at each)"):
         if todo.any():
-            vals[todo] = _K_refined(coords, np.stack([V, P, Z, *per_node], axis=1)[todo], chunk)
+            vals[todo] = _K_refined(coords, np.column_stack([V[todo], P[todo], Z[todo], rows]), chunk)
     if coords.domain is not None:
         mask = np.isfinite(vals)
         if not mask.any():
@@ -172,15 +173,15 @@ _REFINE = 2
 
 
 def _line_tables(coords: PhiTimeCoordinates, nodes: tuple[np.ndarray, ...], chunk: int = 8192
-                 ) -> tuple[np.ndarray, ...]:
-    """(todo, guess, u_lo, u_hi, o_φ, o_Z), each (n_v, n_φ, n_Z): the nodes where U has a root —
-    V(u_lo) ≤ v ≤ V(u_hi) on U's bracket (u_lo, u_hi) of their (φ, Z), its own test
-    (:meth:`PhiTimeCoordinates._chord`: the box's u interval, or the domain's chord), taken once per
-    (φ, Z) line: the image of the domain — U's first guess there, from V and ∂_uV tabulated at
-    :data:`_TABLE` points of the bracket (V increases along it where B^φ keeps its sign; where the
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """(todo, rows): ``todo`` (n_v, n_φ, n_Z), the nodes where U has a root — V(u_lo) ≤ v ≤ V(u_hi)
+    on U's bracket (u_lo, u_hi) of their (φ, Z), its own test (:meth:`PhiTimeCoordinates._chord`:
+    the box's u interval, or the domain's chord), taken once per (φ, Z) line: the image of the
+    domain; ``rows`` (todo's nodes in C order, 5): U's first guess there, from V and ∂_uV tabulated
+    at :data:`_TABLE` points of the bracket (V increases along it where B^φ keeps its sign; where the
     table does not increase the guess is NaN, and U's own solve takes the line's nodes), the
-    bracket, and the offset A' − local of the gauge (:class:`PhiTimeCoordinates`: a function of
-    (φ, Z) only)."""
+    bracket, and the offset (o_φ, o_Z) = A' − local of the gauge (:class:`PhiTimeCoordinates`: a
+    function of (φ, Z) only)."""
     P, Z = (t.ravel() for t in np.meshgrid(nodes[1], nodes[2], indexing="ij"))
     frac = jnp.linspace(0.0, 1.0, _TABLE)
 
@@ -196,28 +197,29 @@ def _line_tables(coords: PhiTimeCoordinates, nodes: tuple[np.ndarray, ...], chun
 
     tab = _in_blocks(_batched(coords, "table", lambda: jax.jit(jax.vmap(table))), np.stack([P, Z], axis=1), chunk)
     us, Vs, dVs = tab[:, 0], tab[:, 1], tab[:, 2]  # (lines, _TABLE)
-    offsets = tab[:, 3:, 0]  # (lines, 2): A' − local = (o_φ, o_Z) on the line
     v = nodes[0]
-    todo = (v[None, :] >= Vs[:, :1]) & (v[None, :] <= Vs[:, -1:])  # NaN ends (no chord): False
+    todo = (v[:, None] >= Vs[None, :, 0]) & (v[:, None] <= Vs[None, :, -1])  # (n_v, lines); NaN ends: False
+    vi, li = np.nonzero(todo)  # the nodes in the image, in C order of (n_v, n_φ, n_Z)
     rising = np.all(np.diff(Vs, axis=1) > 0, axis=1)
-    # the table's interval of every node (a line's rows increase where it is used: ``rising``)
-    j = np.zeros((Vs.shape[0], v.size), np.int64)
-    for i in np.flatnonzero(rising):
-        j[i] = np.searchsorted(Vs[i], v, side="right") - 1
-    j = np.clip(j, 0, _TABLE - 2)  # (lines, n_v)
-    rows = np.arange(Vs.shape[0])[:, None]
-    V0, V1, u0, u1 = Vs[rows, j], Vs[rows, j + 1], us[rows, j], us[rows, j + 1]
+    # the table's interval of each node (a line's table increases where it is used: ``rising``)
+    j = np.zeros(li.size, np.int64)
+    order = np.argsort(li, kind="stable")  # the nodes line by line
+    starts = np.searchsorted(li, np.arange(Vs.shape[0] + 1), sorter=order)
+    for line in np.flatnonzero(rising & (np.diff(starts) > 0)):
+        at = order[starts[line]:starts[line + 1]]
+        j[at] = np.searchsorted(Vs[line], v[vi[at]], side="right") - 1
+    j = np.clip(j, 0, _TABLE - 2)
+    V0, V1, u0, u1 = Vs[li, j], Vs[li, j + 1], us[li, j], us[li, j + 1]
     with np.errstate(invalid="ignore", divide="ignore"):
         # U on [V0, V1] by its cubic Hermite interpolant: U = u0, u1 and U' = 1/∂_uV at the ends
         h = V1 - V0
-        t = (v[None, :] - V0) / h
-        m0, m1 = h / dVs[rows, j], h / dVs[rows, j + 1]
+        t = (v[vi] - V0) / h
+        m0, m1 = h / dVs[li, j], h / dVs[li, j + 1]
         hermite = (u0 * (1 + 2 * t) * (1 - t) ** 2 + m0 * t * (1 - t) ** 2 + u1 * t * t * (3 - 2 * t)
                    - m1 * t * t * (1 - t))
-    guess = np.where(rising[:, None], hermite, np.nan)
-    per_line = [np.broadcast_to(a[:, None], guess.shape) for a in (us[:, 0], us[:, -1], *offsets.T)]
-    shape = (nodes[1].size, nodes[2].size, v.size)
-    return tuple(np.moveaxis(a.reshape(shape), 2, 0) for a in (todo, guess, *per_line))
+    guess = np.where(rising[li], hermite, np.nan)
+    rows = np.column_stack([guess, us[li, 0], us[li, -1], tab[li, 3, 0], tab[li, 4, 0]])
+    return todo.reshape(v.size, nodes[1].size, nodes[2].size), rows
 
 
 def _K_refined(coords: PhiTimeCoordinates, y: np.ndarray, chunk: int) -> np.ndarray:
