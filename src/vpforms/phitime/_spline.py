@@ -111,7 +111,8 @@ def spline_phi_time_field(coords: PhiTimeCoordinates, grid: Any, *, degree: int 
     field.periods = (None, T, None)
     field.phi_time = coords
     field.inside = pot.inside  # the grid's box: native emits it as the domain test
-    field.phi_time_spline_error, field.phi_time_spline_coverage = _b_error(coords, pot, n_check, seed)
+    with phase(f"measuring K's b error at {n_check} points against the exact φ-time field"):
+        field.phi_time_spline_error, field.phi_time_spline_coverage = _b_error(coords, pot, n_check, seed)
     if tol is not None:
         field.grid_choice = choice
     return field
@@ -145,7 +146,8 @@ def _K_samples(coords: PhiTimeCoordinates, nodes: tuple[np.ndarray, ...], chunk:
     domain) the nodes in the domain's image (K finite)."""
     n = tuple(x.size for x in nodes)
     V, P, Z = (t.ravel() for t in np.meshgrid(*nodes, indexing="ij"))
-    todo, rows = _line_tables(coords, nodes, chunk)
+    with phase(f"tabulating V along {nodes[1].size * nodes[2].size:,} (φ, Z) lines of K's grid"):
+        todo, rows = _line_tables(coords, nodes, chunk)
     todo = todo.ravel()
     vals = np.full(V.size, np.nan)
     with phase(f"sampling K at {int(todo.sum()):,} nodes (U by Newton at each)"):
@@ -233,12 +235,19 @@ def _K_refined(coords: PhiTimeCoordinates, y: np.ndarray, chunk: int) -> np.ndar
 
     def refine(row):
         v, phi, Z, u, u_lo, u_hi, o_phi, o_Z = (row[i] for i in range(8))
+
+        def local(t):  # A' − offset at u = t and its u-derivative
+            return jax.jvp(lambda q: coords._local(q, phi, Z), (t,), (jnp.ones_like(t),))
+
+        def newton_step(a_Z, da_Z):  # of V(u) = v, V = −s·A'_Z
+            return (-sign * (a_Z + o_Z) - v) / (-sign * da_Z)
+
         for _ in range(_REFINE - 1):
-            a_Z, da_Z = jax.jvp(lambda t: coords._local(t, phi, Z)[1], (u,), (jnp.ones_like(u),))
-            u = u - (-sign * (a_Z + o_Z) - v) / (-sign * da_Z)  # V = −s·A'_Z
-        (a_phi, a_Z), (da_phi, da_Z) = jax.jvp(lambda t: coords._local(t, phi, Z), (u,), (jnp.ones_like(u),))
-        a_phi, a_Z = a_phi + o_phi, a_Z + o_Z
-        step = (-sign * a_Z - v) / (-sign * da_Z)
+            (_, a_Z), (_, da_Z) = local(u)
+            u = u - newton_step(a_Z, da_Z)
+        (a_phi, a_Z), (da_phi, da_Z) = local(u)
+        step = newton_step(a_Z, da_Z)
+        a_phi = a_phi + o_phi
         u = u - step
         ok = (jnp.abs(step) <= 1e-9 * jnp.abs(u)) & (u >= u_lo) & (u <= u_hi)
         return jnp.stack([sign * (a_phi - da_phi * step), ok.astype(float)])
@@ -256,7 +265,8 @@ def _C_spline(coords: PhiTimeCoordinates, nodes: tuple[np.ndarray, ...], C: np.n
     """The spline potential of the samples C = (0, K, −v) on ``nodes`` (on ``mask``'s nodes only)."""
     n = tuple(x.size for x in nodes)
     # C_v = 0 and C_Z = −v are affine: written down, not fitted, and used themselves (pot.affine)
-    return SplinePotential.from_samples(
+    with phase(f"fitting the {'×'.join(map(str, n))} spline of K" + (" on the domain's image" if mask is not None else "")):
+        return SplinePotential.from_samples(
         nodes, C, periodic=(False, coords.period, False), degree=degree, mask=mask, fit=fit,
         description=f"φ-time potential (0, K, −v), K splined on a {'×'.join(map(str, n))} (v, φ, Z) grid",
         affine=((0, 0, 0, 0), None, (0, -1, 0, 0)))
