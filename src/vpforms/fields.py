@@ -40,6 +40,7 @@ from sympy.core.function import AppliedUndef
 from . import _config  # noqa: F401  (float64)
 from ._budget import check_size
 from ._errors import NotRealFieldError, SpecError
+from ._hoist import jit_hoisted
 from ._field_input import (
     DIV_POINTS,
     _detect_linear,
@@ -208,9 +209,9 @@ class Field:
             return jnp.stack([jnp.asarray(c(x[0], x[1], x[2]), dtype=float) for c in comps])
 
         self._vec = vec
-        self._eval = jax.jit(lambda x: _batched(vec, x))
-        self._jac = jax.jit(lambda x: _batched(jax.jacfwd(vec), x))
-        self._div = jax.jit(lambda x: _batched(lambda p: jnp.trace(jax.jacfwd(vec)(p)), x))
+        self._eval = jit_hoisted(lambda x: _batched(vec, x))
+        self._jac = jit_hoisted(lambda x: _batched(jax.jacfwd(vec), x))
+        self._div = jit_hoisted(lambda x: _batched(lambda p: jnp.trace(jax.jacfwd(vec)(p)), x))
         self._recon_fns: dict[str, Callable] = {}
 
     # -- evaluation ----------------------------------------------------------------------------
@@ -400,7 +401,7 @@ class Field:
         splitting = _check_splitting(splitting)
         if splitting not in self._recon_fns:
             fn = self.potential_vector_field(splitting)
-            self._recon_fns[splitting] = jax.jit(lambda x: _batched(fn, x))
+            self._recon_fns[splitting] = jit_hoisted(lambda x: _batched(fn, x))
         return self._recon_fns[splitting](_as_points(x))
 
     def reconstruction_error(
@@ -659,7 +660,7 @@ class Field:
                 if not all(callable(p) for p in pair):
                     raise ValueError(f"{key} potentials must be {len(pair)} scalar callables")
                 if key == "A":
-                    curl = jax.jit(lambda x: _batched(curl_of(pair), x))
+                    curl = jit_hoisted(lambda x: _batched(curl_of(pair), x))
                     err, where = _numeric_max(lambda x: curl(x) - field(x), np.asarray(pts))
                 else:
                     field._potentials[key] = (tuple(pair), None, "user-supplied")

@@ -12,6 +12,7 @@ import numpy as np
 from jax import lax
 
 from .. import _config  # noqa: F401  (float64)
+from .._hoist import jit_hoisted
 from .._potentials import _zero_between
 from .._quadrature import DEFAULT_N
 from .._vecpot import VectorPotential, _zero
@@ -111,7 +112,7 @@ class PhiTimeCoordinates:
 
         # --- 1. the gauge A_u = 0 -------------------------------------------------------------
         if a_u == "auto":  # A_u ≡ 0 to rounding at the grid points: χ = 0, no quadrature
-            vals = np.asarray(jax.jit(jax.vmap(lambda p: A(p)))(jnp.asarray(grid)))
+            vals = np.asarray(jit_hoisted(jax.vmap(lambda p: A(p)))(jnp.asarray(grid)))
             scale = float(np.max(np.abs(vals[:, 1:]))) or 1.0
             a_u = "zero" if float(np.max(np.abs(vals[:, 0]))) <= 1e-14 * scale else "quadrature"
         # A' = A − ∇χ − ∇χ₀ is kept as its u-dependent part ``local`` (A − ∇ of χ's u end) plus an
@@ -153,7 +154,7 @@ class PhiTimeCoordinates:
         if level_v == "auto":
             ref = grid.copy()
             ref[:, 0] = self.u_ref if self._base is None else np.asarray(self._base(ref[:, 1])[0])
-            vals = np.asarray(jax.jit(jax.vmap(lambda p: Aprime(p[0], p[1], p[2])[1]))(jnp.asarray(ref)))
+            vals = np.asarray(jit_hoisted(jax.vmap(lambda p: Aprime(p[0], p[1], p[2])[1]))(jnp.asarray(ref)))
             spread, scale = float(np.ptp(vals)), float(np.max(np.abs(vals))) or 1.0
             level_v = "no" if spread <= 1e-12 * scale else "yes"
         self.level_v = level_v == "yes"
@@ -195,8 +196,8 @@ class PhiTimeCoordinates:
             return -s * Aprime(u, phi, Z)[1]
 
         self._V = V
-        V_x = jax.jit(jax.vmap(V))
-        lo_face, hi_face = (np.asarray(a) for a in jax.jit(jax.vmap(self._chord))(faces[:, 0], faces[:, 1]))
+        V_x = jit_hoisted(jax.vmap(V))
+        lo_face, hi_face = (np.asarray(a) for a in jit_hoisted(jax.vmap(self._chord))(faces[:, 0], faces[:, 1]))
         v_min_face = np.asarray(V_x(lo_face, faces[:, 0], faces[:, 1]))
         v_max_face = np.asarray(V_x(hi_face, faces[:, 0], faces[:, 1]))
         if self.domain is not None:  # the image of the domain's chords: K's grid is masked to it
@@ -234,8 +235,8 @@ class PhiTimeCoordinates:
             return s * Aprime(self._U(v, phi, Z), phi, Z)[0]
 
         self._K = K
-        self._to = jax.jit(jax.vmap(self.to_y))
-        self._from = jax.jit(jax.vmap(self.to_x))
+        self._to = jit_hoisted(jax.vmap(self.to_y))
+        self._from = jit_hoisted(jax.vmap(self.to_x))
 
     # -- scalar callables ---------------------------------------------------------------------------
     def V(self, u, phi, Z):
@@ -302,7 +303,7 @@ class PhiTimeCoordinates:
         along_u = np.stack([u_c + t * (x[:, 0] - u_c), np.broadcast_to(x[:, 1], shape), np.broadcast_to(x[:, 2], shape)], -1)
         along_Z = np.stack([np.broadcast_to(u_c, shape), along_u[..., 1], z_c + t * (x[:, 2] - z_c)], -1)
         pts = np.concatenate([along_u, along_Z]).reshape(-1, 3)
-        vals = np.asarray(jax.jit(jax.vmap(lambda p: self.A(p)))(jnp.asarray(pts)))
+        vals = np.asarray(jit_hoisted(jax.vmap(lambda p: self.A(p)))(jnp.asarray(pts)))
         bad = ~np.all(np.isfinite(vals), axis=1)
         if bad.any():
             p = pts[int(np.flatnonzero(bad)[0])]
@@ -347,7 +348,7 @@ class PhiTimeCoordinates:
         if self.domain is not None:
             axes = [np.linspace(*self.box[1], n), np.linspace(*self.domain.bounds[2:], 4 * n)]
             g = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 2)
-            _, _, crossings = (np.asarray(a) for a in jax.jit(jax.vmap(
+            _, _, crossings = (np.asarray(a) for a in jit_hoisted(jax.vmap(
                 lambda p, z: boundary_chord(self.domain.geometry, p, z)))(g[:, 0], g[:, 1]))
             if np.any(crossings > 2):
                 i = int(np.flatnonzero(crossings > 2)[0])
@@ -363,7 +364,7 @@ class PhiTimeCoordinates:
         """+1 / −1 if B^φ has that sign at every point of an n³ grid of the box (faces included);
         else :class:`PhiTimeError` at a zero of B^φ (bisection along u between grid points of
         opposite sign, or a grid point where it vanishes)."""
-        a2 = jax.jit(jax.vmap(self._a2))
+        a2 = jit_hoisted(jax.vmap(self._a2))
         g = self._grid(n)
         if self.domain is not None:
             return self._sign_on_domain(a2, g)
@@ -434,9 +435,9 @@ class PhiTimeCoordinates:
         rng = np.random.default_rng(0)
         lo, hi = np.array(self.ybox).T
         y = rng.uniform(lo, hi, (256, 3))
-        VU = jax.jit(jax.vmap(lambda v, p, z: self._V(self._U(v, p, z), p, z)))
+        VU = jit_hoisted(jax.vmap(lambda v, p, z: self._V(self._U(v, p, z), p, z)))
         if self.domain is not None:  # the image of the domain only
-            y = y[np.asarray(jax.jit(jax.vmap(self.inside))(jnp.asarray(y)))]
+            y = y[np.asarray(jit_hoisted(jax.vmap(self.inside))(jnp.asarray(y)))]
         got = np.asarray(VU(y[:, 0], y[:, 1], y[:, 2]))
         err = np.abs(got - y[:, 0])
         i = int(np.argmax(np.where(np.isfinite(err), err, np.inf)))

@@ -43,6 +43,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .._hoist import jit_hoisted
 from .._phases import phase
 from ..domains import ToroidalDomain
 from ..fields import Field
@@ -197,7 +198,7 @@ def _line_tables(coords: PhiTimeCoordinates, nodes: tuple[np.ndarray, ...], chun
         a_Z, da_Z = jax.vmap(lambda u: jax.jvp(lambda t: coords._local(t, phi, z)[1], (u,), (jnp.ones_like(u),)))(us)
         return jnp.stack([us, -sign * (a_Z + o_Z), -sign * da_Z, o_phi + 0 * us, o_Z + 0 * us])
 
-    tab = _in_blocks(_batched(coords, "table", lambda: jax.jit(jax.vmap(table))), np.stack([P, Z], axis=1), chunk)
+    tab = _in_blocks(_batched(coords, "table", lambda: jit_hoisted(jax.vmap(table))), np.stack([P, Z], axis=1), chunk)
     us, Vs, dVs = tab[:, 0], tab[:, 1], tab[:, 2]  # (lines, _TABLE)
     v = nodes[0]
     todo = (v[:, None] >= Vs[None, :, 0]) & (v[:, None] <= Vs[None, :, -1])  # (n_v, lines); NaN ends: False
@@ -252,7 +253,7 @@ def _K_refined(coords: PhiTimeCoordinates, y: np.ndarray, chunk: int) -> np.ndar
         ok = (jnp.abs(step) <= 1e-9 * jnp.abs(u)) & (u >= u_lo) & (u <= u_hi)
         return jnp.stack([sign * (a_phi - da_phi * step), ok.astype(float)])
 
-    out = _in_blocks(_batched(coords, "K refined", lambda: jax.jit(jax.vmap(refine))), y, chunk)
+    out = _in_blocks(_batched(coords, "K refined", lambda: jit_hoisted(jax.vmap(refine))), y, chunk)
     vals, ok = out[:, 0], (out[:, 1] > 0.5) & np.isfinite(out[:, 0])
     if not ok.all():
         K = _K_batched(coords)
@@ -285,7 +286,7 @@ def _K_spline_to_tol(coords, start, degree, cluster, chunk, tol, region, max_mem
     else:
         q = region.sample(1000, seed=1)
         x = np.stack([q[:, 0] ** 2 / 2, q[:, 1], q[:, 2]], axis=1)
-        pts = np.asarray(jax.jit(jax.vmap(coords.to_y))(jnp.asarray(x)))
+        pts = np.asarray(jit_hoisted(jax.vmap(coords.to_y))(jnp.asarray(x)))
         lo_b, hi_b = np.array(coords.ybox).T
         out = ~np.all(np.isfinite(pts) & (pts >= lo_b) & (pts <= hi_b), axis=1) & np.isfinite(pts[:, 1])
         out |= ~np.isfinite(pts[:, 0])
@@ -353,7 +354,7 @@ def _b_exact(coords: PhiTimeCoordinates, y: np.ndarray) -> np.ndarray:
         dK_dZ = sign * (Ap_Z - Ap_u * V_Z / V_u)
         return jnp.stack([-dK_dZ, jnp.ones_like(dK_dv), dK_dv])
 
-    return _in_blocks(_batched(coords, "b", lambda: jax.jit(jax.vmap(b))), np.asarray(y, float).reshape(-1, 3))
+    return _in_blocks(_batched(coords, "b", lambda: jit_hoisted(jax.vmap(b))), np.asarray(y, float).reshape(-1, 3))
 
 
 #: points per compiled call of the per-node Newton functions (every call is padded to it: one
@@ -376,7 +377,7 @@ def _block_size(n: int, chunk: int = _BLOCK) -> int:
 
 def _K_batched(coords: PhiTimeCoordinates):
     """K(v, φ, Z) over arrays (U by Newton at each point), jitted once per coordinates."""
-    return _batched(coords, "K", lambda: jax.jit(jax.vmap(coords._K)))
+    return _batched(coords, "K", lambda: jit_hoisted(jax.vmap(coords._K)))
 
 
 def _in_blocks(fn, y: np.ndarray, chunk: int = _BLOCK) -> np.ndarray:
