@@ -389,6 +389,23 @@ def test_a_grid_that_follows_the_domain_leaves_a_nearby_wire_out():
     assert err[False] * 5 < err[True], err
 
 
+def test_node_mask_of_a_large_grid_measures_a_band_and_equals_every_cells_distance():
+    """Past 2¹⁸ cells node_mask measures the distance only in a band about the boundary (inside
+    or outside decided by rows elsewhere): the cells it keeps are those of the distance at every
+    cell, exactly, on a rotating ellipse whose band holds both kept and dropped cells."""
+    R, Z = np.linspace(0.7, 1.3, 73), np.linspace(-0.3, 0.3, 71)
+    phi = T * np.arange(64) / 64
+    phi_next = np.append(phi[1:], phi[0] + T)
+    Rc, Pc, Zc = 0.5 * (R[:-1] + R[1:]), 0.5 * (phi + phi_next), 0.5 * (Z[:-1] + Z[1:])
+    assert Rc.size * Pc.size * Zc.size >= 1 << 18  # the band path
+    for reach in (0.004, 0.02):
+        r = np.full((Rc.size, Pc.size, Zc.size), reach)
+        G = np.meshgrid(Rc, Pc, Zc, indexing="ij")
+        d = ELLIPSE._distances(G[0].ravel(), G[1].ravel(), G[2].ravel()).reshape(G[0].shape)
+        assert np.any((d > 0) & (d <= reach)) and np.any((d > reach) & (d < 2 * reach))  # the band decides
+        np.testing.assert_array_equal(ELLIPSE._within(Rc, Pc, Zc, r), d <= r)
+
+
 def test_distances_of_many_points_run_in_blocks_and_equal_the_direct_ones():
     """node_mask's distances are evaluated in padded blocks (memory O(block · vertices): the cell
     centres of a 193 × 146 × 193 grid asked JAX for 44 GB at once on W7-X's domain); blocked, padded

@@ -113,3 +113,26 @@ def test_w7x_quintic_of_a_on_the_whole_box_is_accurate_inside_the_plasma():
         err[degree, fit] = _spline_error(field._vector_potentials[0].curl, coils, None, R, Z, 5, domain=plasma, n=1000)
     assert err[5, "quasi"] < err[5, "interpolate"] / 10
     assert err[5, "quasi"] < err[3, "interpolate"] / 2
+
+
+def test_w7x_quintic_of_a_on_a_domain_is_the_whole_boxs_there_and_nan_far_from_it():
+    """With a domain the quasi-interpolant of A is sampled and fitted only within reach of the cells
+    that meet it (plane by plane; quasi_reach nodes, a cube): on the domain its field equals the whole
+    box's bit for bit, and far outside it is NaN (not the coils' field: not sampled)."""
+    from vpforms.coils import device
+    from vpforms.grids._quasi import quasi_reach
+    from vpforms.problems.coil_fields import spline_coil_field
+    from vpforms.problems.devices import device_domain, grid_box
+
+    coils = device("w7x", rule="quadrature")
+    R, Z = grid_box("w7x")
+    dom = device_domain("w7x")
+    assert quasi_reach(np.linspace(*R, 48), 5, None) == 7
+    masked, _ = spline_coil_field(coils, R, Z, n_R=48, n_phi=96, n_Z=48, degree=5, fit="quasi", domain=dom, name="m")
+    whole, _ = spline_coil_field(coils, R, Z, n_R=48, n_phi=96, n_Z=48, degree=5, fit="quasi", name="w")
+    p = dom.sample_points(5000, seed=3)
+    b_m, b_w = (np.asarray(f._vector_potentials[0].curl(p)) for f in (masked, whole))
+    np.testing.assert_array_equal(b_m, b_w)
+    corner = np.array([[0.5 * R[0] ** 2 * 1.0005, 0.3, Z[0] + 0.01]])  # the box's corner, far from the plasma
+    assert np.all(np.isnan(np.asarray(masked._vector_potentials[0].curl(corner))))
+    assert np.all(np.isfinite(np.asarray(whole._vector_potentials[0].curl(corner))))

@@ -32,9 +32,11 @@ from typing import Any
 import jax
 import jax.numpy as jnp
 import numpy as np
+from scipy.spatial import cKDTree
 
 from . import _config  # noqa: F401  (float64 on)
 from ._polygon import Wall, _fmt, _inside_kernel, _signed_distance_kernel
+from ._polygon import _signed_distance_jit as _polygon_distance_jit
 
 __all__ = ["ToroidalDomain", "as_domain", "boundary_chord", "boundary_inside", "boundary_signed_distance"]
 
@@ -77,6 +79,19 @@ def boundary_signed_distance(geom, R, phi, Z):
     if geom[2].shape[0] == 1:
         return _signed_distance_kernel(geom[2][0], geom[3][0], R, Z)
     return _per_point(_signed_distance_kernel, geom, R, phi, Z)
+
+
+def _inside_rows(Rv: np.ndarray, Zv: np.ndarray, R: np.ndarray, Z: np.ndarray) -> np.ndarray:
+    """Whether the points of the grid R × Z (shape (len(R), len(Z))) are inside the polygon
+    (Rv, Zv), by the even-odd rule along each row Z: the number of edges the row crosses left of
+    the point (NumPy; equal to the JAX kernel's answer away from the boundary)."""
+    R1, Z1 = np.roll(Rv, -1), np.roll(Zv, -1)
+    z = np.asarray(Z, float)[:, None]
+    cross = ((Zv <= z) & (Z1 > z)) | ((Z1 <= z) & (Zv > z))  # (len(Z), n)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        Rx = np.sort(np.where(cross, Rv + (z - Zv) * (R1 - Rv) / np.where(cross, Z1 - Zv, 1.0), np.inf), axis=1)
+    left = np.stack([np.searchsorted(row, R, side="left") for row in Rx], axis=1)  # (len(R), len(Z))
+    return left % 2 == 1
 
 
 def boundary_chord(geom, phi, Z):
@@ -357,6 +372,33 @@ class ToroidalDomain:
             out[lo:lo + n] = np.asarray(self.signed_distance(*q))[:n]
         return out
 
+    def _within(self, Rc: np.ndarray, Pc: np.ndarray, Zc: np.ndarray, reach: np.ndarray) -> np.ndarray:
+        """signed distance ≤ reach at the tensor grid Rc × Pc × Zc (shape (nR, nφ, nZ)), the
+        distance computed only in a band about the boundary: per plane φ, a point whose nearest
+        vertex is farther than max(reach) + the longest edge / 2 is farther than max(reach) from
+        every edge, and only whether it is inside decides (the even-odd rule; the boundary is not
+        near). 5.1 → 0.85 s on W7-X's 95 × 192 × 95 cells (128 vertices); a grid of fewer than
+        2¹⁸ cells is measured whole (the band's compiled shapes would cost more)."""
+        if Rc.size * Pc.size * Zc.size < 1 << 18:
+            G = np.meshgrid(Rc, Pc, Zc, indexing="ij")
+            return self._distances(G[0].ravel(), G[1].ravel(), G[2].ravel()).reshape(G[0].shape) <= reach
+        Rv, Zv = (np.asarray(a) for a in _vertices_at(self._geom, Pc))  # (nφ, n)
+        edge = np.hypot(np.roll(Rv, -1, axis=1) - Rv, np.roll(Zv, -1, axis=1) - Zv).max(axis=1)
+        RR, ZZ = (a.ravel() for a in np.meshgrid(Rc, Zc, indexing="ij"))
+        pts = np.column_stack([RR, ZZ])
+        out = np.zeros((Rc.size, Pc.size, Zc.size), bool)
+        far = float(np.max(reach))
+        for j in range(Pc.size):
+            near_vertex = cKDTree(np.column_stack([Rv[j], Zv[j]])).query(pts)[0]
+            band = np.flatnonzero(near_vertex <= far + 0.5 * edge[j])
+            keep = _inside_rows(Rv[j], Zv[j], Rc, Zc).ravel()
+            if band.size:  # padded to a power of two: a few compiled shapes
+                q = np.pad(band, (0, (1 << (band.size - 1).bit_length()) - band.size), mode="edge")
+                d = np.asarray(_polygon_distance_jit(Rv[j], Zv[j], RR[q], ZZ[q]))[:band.size]
+                keep[band] = d <= reach[:, j, :].ravel()[band]
+            out[:, j, :] = keep.reshape(Rc.size, Zc.size)
+        return out
+
     def contains(self, points_RphiZ: Any) -> np.ndarray:
         """:meth:`inside` of points (M, 3) (or (3,)) in (R, φ, Z) as a NumPy bool array (M,),
         evaluated in blocks (memory O(block · n))."""
@@ -415,9 +457,8 @@ class ToroidalDomain:
         Rc, Pc, Zc = 0.5 * (R[:-1] + R[1:]), 0.5 * (phi + phi_next), 0.5 * (Z[:-1] + Z[1:])
         half = 0.5 * np.hypot(np.diff(R)[:, None, None], np.diff(Z)[None, None, :])
         dphi = (phi_next - phi)[None, :, None]
-        G = np.meshgrid(Rc, Pc, Zc, indexing="ij")
-        d = self._distances(G[0].ravel(), G[1].ravel(), G[2].ravel()).reshape(G[0].shape)
-        cell = d <= half + self.vertex_speed * 0.5 * np.abs(dphi)
+        reach = half + self.vertex_speed * 0.5 * np.abs(dphi)
+        cell = self._within(Rc, Pc, Zc, reach)
         keep = np.zeros((nR, nP, nZ), bool)
         for a in (0, 1):
             for b in (0, 1):

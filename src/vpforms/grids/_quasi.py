@@ -35,7 +35,7 @@ from math import comb
 import numpy as np
 from scipy.interpolate import make_interp_spline
 
-__all__ = ["knots_of", "quasi_coefficients", "quasi_matrix"]
+__all__ = ["knots_of", "quasi_coefficients", "quasi_matrix", "quasi_reach"]
 
 
 def knots_of(x: np.ndarray, k: int, period: float | None) -> np.ndarray:
@@ -96,3 +96,27 @@ def quasi_coefficients(nodes, values: np.ndarray, knots, degrees, periods, mask=
     if mask is not None:
         c = np.where(missing > 0, np.nan, c)
     return c
+
+
+def quasi_reach(x: np.ndarray, k: int, period: float | None) -> int:
+    """How many nodes beyond a cell of the grid ``x`` the quasi-interpolant's values on that cell
+    reach: the largest distance, in nodes, from the nearer end of a cell to a node in the stencil
+    of a coefficient whose B-spline is non-zero there (periodic distance on a periodic axis). A
+    mask that keeps every node within it of the cells that matter leaves their coefficients as
+    the unmasked fit's (:meth:`~vpforms.domains.ToroidalDomain.node_mask`'s ``pad``)."""
+    x = np.asarray(x, float)
+    n, t = x.size, knots_of(x, k, period)
+    W = quasi_matrix(x, t, k, period)
+    cells = n if period is not None else n - 1
+    reach = 0
+    for c in range(cells):
+        lo = x[c]
+        hi = x[c + 1] if c + 1 < n else x[0] + period
+        i = int(np.searchsorted(t, 0.5 * (lo + hi), side="right")) - 1
+        rows = [j % W.shape[0] if period is not None else j for j in range(i - k, i + 1)]
+        cols = np.flatnonzero(np.any(W[rows] != 0, axis=0))
+        d = np.minimum(np.abs(cols - c), np.abs(cols - (c + 1)))
+        if period is not None:
+            d = np.minimum(d, n - d)
+        reach = max(reach, int(d.max()))
+    return reach

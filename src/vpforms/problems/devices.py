@@ -119,8 +119,9 @@ def grid_field(name: str, grid: tuple[int, int, int] = GRID, degree: int = 3, ru
     that follows the default domain (:func:`vpforms.problems.coil_fields.spline_coil_field`), in
     (u = R²/2, φ, Z), every backend (the native one included). spline_error is max |B_spline − B|
     / max |B| at 400 seeded points of the domain (the worst sit at its edge, nearest the coils).
-    ``fit="quasi"``: the local quasi-interpolant on the whole box instead (coils inside; the
-    domain is where it is checked): :func:`~vpforms.problems.coil_fields.spline_coil_field`.
+    ``fit="quasi"``: the local quasi-interpolant instead, sampled within its reach of the domain's
+    cells (coils inside that reach; NaN farther out):
+    :func:`~vpforms.problems.coil_fields.spline_coil_field`.
     Cached per arguments within a process."""
     key = device_data(name)["name"]
     R, Z = grid_box(key)
@@ -215,8 +216,9 @@ def phi_time_grid_field(name: str, grid: tuple[int, int, int] = PHI_TIME_GRIDS[0
     K = A'_φ(U, φ, Z) carries ∂_φχ, χ = ∫ A_u du, one degree less smooth in φ than A, so a cubic A
     makes K only C¹ across A's φ knots and no grid of K converges to it (the b error along the lines
     stayed at ~1e-4 from a 64 × 128 × 64 grid of K to 96 × 256 × 96; with a quintic A it falls as
-    the grid of K is refined) — fitted by the local quasi-interpolant on the whole box (``fit="quasi"``:
-    the interpolant of degree 5 rings next to the coils), and K interpolated at degree 5 on the image
+    the grid of K is refined) — fitted by the local quasi-interpolant (``fit="quasi"``: the
+    interpolant of degree 5 rings next to the coils; within reach of the default domain's cells
+    only, the box's coils inside that reach), and K interpolated at degree 5 on the image
     (its quasi-interpolant leaves the cells next to the image's edge undefined).
 
     Raises
