@@ -224,24 +224,25 @@ def test_a_gauge_path_off_the_potential_is_refused():
         phi_time_field(A, BOX, domain=_tube())
 
 
-@pytest.mark.parametrize("refine", [3, 1])
-def test_k_is_sampled_where_the_image_is_and_nowhere_else(exact, refine, monkeypatch):
-    """The Newton solves of K's samples run only at the nodes in the domain's image (the chord
-    test, once per (φ, Z)), from V tabulated along each line: the same values (to rounding), and
-    the same NaN nodes, as U's own solve at every node — also where the table's guess is not
-    refined enough (one Newton step: most nodes fall back to U's own solve)."""
+@pytest.mark.parametrize("accept", [None, 0.0])
+def test_k_is_sampled_where_the_image_is_and_nowhere_else(exact, accept, monkeypatch):
+    """The solves of K's samples run only at the nodes in the domain's image (the chord test, once
+    per (φ, Z)), from V and A'_φ tabulated along each line, by one evaluation and a second-order
+    step: the same values (to rounding), and the same NaN nodes, as U's own solve at every node —
+    also where no step is accepted (every node falls back to U's own solve)."""
     import vpforms.phitime._spline as spline
     from vpforms.phitime._spline import _K_batched, _K_nodes, _K_samples
 
-    monkeypatch.setattr(spline, "_REFINE", refine)
+    if accept is not None:
+        monkeypatch.setattr(spline, "_ACCEPT", accept)
     fallback = []  # rows solved again by U from its chord
     real = spline._K_batched
     monkeypatch.setattr(spline, "_K_batched", lambda co: (lambda v, p, z: fallback.append(len(v)) or real(co)(v, p, z)))
     c = exact.phi_time
-    c.__dict__.pop("_batched_fns", None)  # the refined solve is compiled with _REFINE steps
+    c.__dict__.pop("_batched_fns", None)  # the refined solve is compiled with _ACCEPT in it
     nodes = _K_nodes(c, (14, 8, 14), 0.0)
     C, mask = _K_samples(c, nodes, 4096)
-    assert (sum(fallback) > 0) == (refine == 1)
+    assert (sum(fallback) > 0) == (accept == 0.0)
     y = np.stack([t.ravel() for t in np.meshgrid(*nodes, indexing="ij")], 1)
     every = np.asarray(_K_batched(c)(jnp.asarray(y[:, 0]), jnp.asarray(y[:, 1]), jnp.asarray(y[:, 2])))
     assert 0.2 < mask.mean() < 0.9  # the image is not the box
