@@ -2,7 +2,7 @@
 
     PYTHONPATH=$PWD/src python benchmarks/peers/bench_w7x_phi_time.py [--inset 0.1] [--grid-A 96x192x96]
         [--grid-K 96x128x96] [--degree 5] [--fit quasi] [--degree-K 5] [--fit-K interpolate]
-        [--settings 6:40,6:80,8:60] [--long 1000]
+        [--settings 6:40,6:80,8:60,6:60:blanes_moan] [--long 1000]
 
 The field is :func:`vpforms.problems.devices.phi_time_grid_field`'s: the spline of A (by default of
 degree 5, its quasi-interpolant on the whole box), and K of the φ-time field fitted on the image of a
@@ -41,7 +41,9 @@ def main(argv=None) -> int:
     ap.add_argument("--inset", type=float, default=0.1)
     ap.add_argument("--grid-A", default="96x192x96")
     ap.add_argument("--grid-K", default="96x128x96")
-    ap.add_argument("--settings", default="6:40,6:80,8:60", help="order:steps per field period, …")
+    ap.add_argument("--settings", default="6:40,6:80,8:60",
+                    help="order:steps per field period[:composition], … (composition: vpforms.compose's scheme, "
+                         "default its default for the order)")
     ap.add_argument("--long", type=int, default=1000)
     ap.add_argument("--degree", type=int, default=5, help="of the spline of A")
     ap.add_argument("--fit", default="quasi", choices=("interpolate", "quasi"),
@@ -78,8 +80,9 @@ def main(argv=None) -> int:
     y0 = np.asarray(to_phi_time(pf, np.c_[R0 ** 2 / 2, 0 * R0, 0 * R0]))
     rows = []
     for s in args.settings.split(","):
-        order, n = (int(v) for v in s.split(":"))
-        m = phi_time_scheme(pf, "SE+SE", order=order)
+        order, n, *comp = s.split(":")
+        order, n, comp = int(order), int(n), (comp[0] if comp else None)
+        m = phi_time_scheme(pf, "SE+SE", order=order, composition=comp)
         h = 2 * np.pi / NFP / n
         vpforms.integrate(m, y0[:2], h, n, backend="native", progress=False)  # the kernel compiled
         t = time.perf_counter()
@@ -93,7 +96,8 @@ def main(argv=None) -> int:
         t = time.perf_counter()
         long = vpforms.integrate(m, y0, h, n * NFP * args.long, save_every=n, backend="native", progress=False)
         t_long = time.perf_counter() - t
-        rows.append((order, n, emax, emed, int(sol.n_failed), t50, t_long, int(long.n_failed)))
+        rows.append((order if comp is None else f"{order} ({comp})", n, emax, emed, int(sol.n_failed), t50, t_long,
+                     int(long.n_failed)))
         print(rows[-1], flush=True)
     lines = [
         "# W7-X, φ as the time on a domain that follows the plasma (issue #38)", "",

@@ -158,15 +158,19 @@ def _fit_map(xr: np.ndarray, t: np.ndarray, k: int, n: int, period: float | None
     M = np.full((touched.size, xr.size), np.nan)
     col = {j: i for i, j in enumerate(touched)}
     done = np.zeros(touched.size, bool)
+    cells, ats = [], []
     for i, j in enumerate(touched):
         if done[i]:
             continue
         c = int(np.flatnonzero(nz[:, j])[-1])  # the last cell of B-spline j in the run
-        cols = np.flatnonzero(nz[c])
-        rows = slice(c * (k + 1), (c + 1) * (k + 1))
-        at = [col[q] for q in cols]
-        M[at] = np.linalg.solve(D[rows][:, cols], S[rows])
+        at = [col[q] for q in np.flatnonzero(nz[c])]
+        cells.append(c)
+        ats.append(at)
         done[at] = True
+    # the cells' (k + 1)-square systems in one batched solve
+    rows = np.asarray(cells)[:, None] * (k + 1) + np.arange(k + 1)  # (cells, k + 1)
+    sol = np.linalg.solve(D[rows[:, :, None], touched[np.asarray(ats)][:, None, :]], S[rows])
+    M[np.asarray(ats)] = sol
     return touched, M
 
 
