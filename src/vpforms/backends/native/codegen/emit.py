@@ -187,6 +187,13 @@ def _map_body(st: MapStage, newton: bool, fixed: bool) -> list[str]:
     # a(x): the components the guesses need; in the exact pass all three, written to ga where the
     # caller asks (the guard's predictor, for the first stage: one evaluation of a(x) per step)
     comps = sorted(set(need.values()))
+    # on a spline field a(x) is a whole 3-D contraction per stage (216 products at degree 5), which
+    # the Euler guess costs; the solve's own lines at the start value cost nothing more, and Newton
+    # from x takes one iteration more (its first step is the linearly implicit Euler step): the
+    # exact pass starts from x there, and evaluates a(x) only where the guard asks for it
+    start = not fixed and any(sp.sympify(e).has(splines.SplineAt) for e in st.field_exprs)
+    if start:
+        comps = []
     if not fixed and comps:
         lines += _assign([f"ga{i + 1}" for i in range(3)], list(st.field_exprs), xs, "ge")
         lines.append("if (ga) { ga[0] = ga1; ga[1] = ga2; ga[2] = ga3; }")
@@ -196,7 +203,7 @@ def _map_body(st: MapStage, newton: bool, fixed: bool) -> list[str]:
         lines += ["if (ga) {", *(f"    {ln}" for ln in own), "    ga[0] = ga1; ga[1] = ga2; ga[2] = ga3;", "}"]
     elif comps:
         lines += _assign([f"ga{i + 1}" for i in comps], [st.field_exprs[i] for i in comps], xs, "ge")
-    guess = {k: f"x{i + 1} + h*ga{i + 1}" if k in need else "0.0"
+    guess = {k: (f"x{i + 1}" if start else f"x{i + 1} + h*ga{i + 1}") if k in need else "0.0"
              for k, i in ((2, Sig[2]), (1, Sig[1]))}
     # evaluated at the roots: g₂'s terms at Y₃ (the second solve's constants), volpot3 at (Y₃, Y₂)
     at_roots = {**base, Y3: c["Y3"], Y2: c["Y2"]}
