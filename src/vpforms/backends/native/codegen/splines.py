@@ -514,6 +514,50 @@ static inline _VP_INLINE void vp_lines(const double *fd, const double *h, int k0
     double acc[VP_LINES][10];  /* the sums, local: no store to L can alias the block */
     for (int j = 0; j < n; j++)
         for (int p = 0; p <= kf; p++) acc[j][p] = 0.0;
+    /* lines along x or z that share the basis of y (a stage's lines are at one point of the
+       other two axes, differentiated along one of them): y contracted once, T[x][z], then each
+       line's other axis — (k+1)^3 + n (k+1)^2 products instead of n ((k+1)^3 + (k+1)^2) */
+    int sa = n > 1, sb = n > 1;
+    for (int j = 1; j < n; j++) { sa &= Na[j] == Na[0]; sb &= Nb[j] == Nb[0]; }
+    if (f == 0 && sa) {  /* lines along x, one y basis: T[x][z] = sum_y N[y] c[x][y][z] */
+        double T[10][10];
+        for (int x = 0; x <= k0; x++) {
+            for (int z = 0; z <= k2; z++) T[x][z] = 0.0;
+            for (int y = 0; y <= k1; y++) {
+                const double *r = b + (x * m1 + y) * m2;
+                double w = Na[0][y];
+                for (int z = 0; z <= k2; z++) T[x][z] += w * r[z];
+            }
+        }
+        for (int j = 0; j < n; j++)
+            for (int x = 0; x <= k0; x++) {
+                double t = 0.0;
+                for (int z = 0; z <= k2; z++) t += Nb[j][z] * T[x][z];
+                acc[j][x] = t;
+            }
+        for (int j = 0; j < n; j++) vp_lpoly(fd, h, 0, k0, i0, acc[j], P[j]);
+        return;
+    }
+    if (f == 2 && sb) {  /* lines along z, one y basis: T[x][z] = sum_y N[y] c[x][y][z] */
+        double T[10][10];
+        for (int x = 0; x <= k0; x++) {
+            for (int z = 0; z <= k2; z++) T[x][z] = 0.0;
+            for (int y = 0; y <= k1; y++) {
+                const double *r = b + (x * m1 + y) * m2;
+                double w = Nb[0][y];
+                for (int z = 0; z <= k2; z++) T[x][z] += w * r[z];
+            }
+        }
+        for (int j = 0; j < n; j++) {
+            for (int z = 0; z <= k2; z++) acc[j][z] = 0.0;
+            for (int x = 0; x <= k0; x++) {
+                double w = Na[j][x];
+                for (int z = 0; z <= k2; z++) acc[j][z] += w * T[x][z];
+            }
+        }
+        for (int j = 0; j < n; j++) vp_lpoly(fd, h, 2, k2, i2, acc[j], P[j]);
+        return;
+    }
     for (int x = 0; x <= k0; x++)
         for (int y = 0; y <= k1; y++) {
             const double *r = b + (x * m1 + y) * m2;
