@@ -581,6 +581,20 @@ def _kernel(method: Any, engine: str, entry: str) -> str:
 #include <float.h>
 #define B {BLOCK}
 #define _VP_INLINE __attribute__((always_inline))
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+/* lanes per block: B, or fewer, so that a few lanes (20 field lines) still fill every thread
+   (each lane's steps are its own: the answers do not depend on the blocks) */
+static inline int64_t vp_block(int64_t N) {{
+#ifdef _OPENMP
+    int64_t t = omp_get_max_threads();
+#else
+    int64_t t = 1;
+#endif
+    int64_t per = (N + t - 1) / (t > 0 ? t : 1);
+    return per < 1 ? 1 : per < B ? per : B;
+}}
 {_STAGE_LINKAGE[vectorised]}/* finite test that survives -ffast-math: NaN fails every comparison */
 #define _VP_FINITE(a, b, c) ((fabs(a) <= DBL_MAX) & (fabs(b) <= DBL_MAX) & (fabs(c) <= DBL_MAX))
 {_SIMD_DECLS}

@@ -55,7 +55,7 @@ static inline int64_t vp_slot(int64_t c, int64_t se, int64_t n_total, int64_t n_
 }}
 void vp_run(int64_t N, double *x, int32_t *status, int64_t *n, int64_t n_target, double h,
             int64_t save_every, int64_t n_total, double *xs, int64_t n_saves, const double *fd) {{
-    int64_t nb = (N + B - 1) / B;
+    int64_t Bn = vp_block(N), nb = (N + Bn - 1) / Bn;
     #pragma omp parallel for schedule(dynamic, 1) if (nb > 1)  /* one block: no thread team to wake and wait for */
     for (int64_t b = 0; b < nb; b++) {{
 {lanes['load']}        for (int64_t k = nmin; k < n_target; k++) {{

@@ -16,8 +16,8 @@ def lane_code() -> dict[str, str]:
     live while its status is 0 and n < n_target), stored back (``store``)."""
     nf = RESULTS.nonfinite
     return {
-        "load": """        int64_t lo = b * B;
-        int m = (int)(N - lo < B ? N - lo : B);
+        "load": """        int64_t lo = b * Bn;
+        int m = (int)(N - lo < Bn ? N - lo : Bn);
         double a1[B], a2[B], a3[B];
         int32_t st[B];
         int64_t nn[B];

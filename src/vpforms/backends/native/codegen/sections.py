@@ -61,7 +61,7 @@ int64_t vp_sections(int64_t N, double *x, int32_t *status, int64_t *n, int64_t n
                     int32_t kind, int32_t axis, double value, double period, int32_t direction,
                     int64_t cap, int64_t *ev_line, int64_t *ev_step, double *ev_x, const double *fd) {
     int64_t count = 0;
-    int64_t nb = (N + B - 1) / B;
+    int64_t Bn = vp_block(N), nb = (N + Bn - 1) / Bn;
     #pragma omp parallel for schedule(dynamic, 1) if (nb > 1)
     for (int64_t b = 0; b < nb; b++) {
 @LOAD@        double q[B], p1[B], p2[B], p3[B];

@@ -139,7 +139,7 @@ void vp_wall(int64_t N, double *x, int32_t *status, int64_t *n, int64_t n_target
              int64_t nv, const double *Rv, const double *Zv, double tolm, int32_t init,
              double *s, double *phi, double *L, double *dphi, double *mg, int64_t *step, double *Xo,
              const double *fd) {
-    int64_t nb = (N + B - 1) / B;
+    int64_t Bn = vp_block(N), nb = (N + Bn - 1) / Bn;
     double ah = fabs(h);
     #pragma omp parallel for schedule(dynamic, 1) if (nb > 1)  /* one block: no thread team to wake and wait for */
     for (int64_t b = 0; b < nb; b++) {
