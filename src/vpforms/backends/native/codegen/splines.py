@@ -519,43 +519,33 @@ static inline _VP_INLINE void vp_lines(const double *fd, const double *h, int k0
        line's other axis — (k+1)^3 + n (k+1)^2 products instead of n ((k+1)^3 + (k+1)^2) */
     int sa = n > 1, sb = n > 1;
     for (int j = 1; j < n; j++) { sa &= Na[j] == Na[0]; sb &= Nb[j] == Nb[0]; }
-    if (f == 0 && sa) {  /* lines along x, one y basis: T[x][z] = sum_y N[y] c[x][y][z] */
-        double T[10][10];
+    if ((f == 0 && sa) || (f == 2 && sb)) {  /* lines along x or z, one y basis */
+        const double *Ny = f == 0 ? Na[0] : Nb[0];
+        double T[10][10];  /* T[x][z] = sum_y N[y] c[x][y][z] */
         for (int x = 0; x <= k0; x++) {
             for (int z = 0; z <= k2; z++) T[x][z] = 0.0;
             for (int y = 0; y <= k1; y++) {
                 const double *r = b + (x * m1 + y) * m2;
-                double w = Na[0][y];
-                for (int z = 0; z <= k2; z++) T[x][z] += w * r[z];
-            }
-        }
-        for (int j = 0; j < n; j++)
-            for (int x = 0; x <= k0; x++) {
-                double t = 0.0;
-                for (int z = 0; z <= k2; z++) t += Nb[j][z] * T[x][z];
-                acc[j][x] = t;
-            }
-        for (int j = 0; j < n; j++) vp_lpoly(fd, h, 0, k0, i0, acc[j], P[j]);
-        return;
-    }
-    if (f == 2 && sb) {  /* lines along z, one y basis: T[x][z] = sum_y N[y] c[x][y][z] */
-        double T[10][10];
-        for (int x = 0; x <= k0; x++) {
-            for (int z = 0; z <= k2; z++) T[x][z] = 0.0;
-            for (int y = 0; y <= k1; y++) {
-                const double *r = b + (x * m1 + y) * m2;
-                double w = Nb[0][y];
+                double w = Ny[y];
                 for (int z = 0; z <= k2; z++) T[x][z] += w * r[z];
             }
         }
         for (int j = 0; j < n; j++) {
-            for (int z = 0; z <= k2; z++) acc[j][z] = 0.0;
-            for (int x = 0; x <= k0; x++) {
-                double w = Na[j][x];
-                for (int z = 0; z <= k2; z++) acc[j][z] += w * T[x][z];
+            if (f == 0) {  /* each line's z basis */
+                for (int x = 0; x <= k0; x++) {
+                    double t = 0.0;
+                    for (int z = 0; z <= k2; z++) t += Nb[j][z] * T[x][z];
+                    acc[j][x] = t;
+                }
+            } else {  /* each line's x basis */
+                for (int z = 0; z <= k2; z++) acc[j][z] = 0.0;
+                for (int x = 0; x <= k0; x++) {
+                    double w = Na[j][x];
+                    for (int z = 0; z <= k2; z++) acc[j][z] += w * T[x][z];
+                }
             }
         }
-        for (int j = 0; j < n; j++) vp_lpoly(fd, h, 2, k2, i2, acc[j], P[j]);
+        for (int j = 0; j < n; j++) vp_lpoly(fd, h, f, kf, f == 0 ? i0 : i2, acc[j], P[j]);
         return;
     }
     for (int x = 0; x <= k0; x++)
