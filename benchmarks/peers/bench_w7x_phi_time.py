@@ -111,7 +111,8 @@ def main(argv=None) -> int:
         f"{'on' if args.jax_cache else 'off'}), b error {pf.phi_time_spline_error:.1e} where defined "
         f"({pf.phi_time_spline_coverage:.0%} of the domain). 20 lines, error on the bean planes against simsopt's "
         f"tol-1e-12 reference. Peak RSS {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MB. The native "
-        f"kernel runs the 20 lines as {min(os.cpu_count() or 1, 20)} blocks, one per thread; CPU s: the process's "
+        f"kernel runs the 20 lines as {min(int(os.environ.get('OMP_NUM_THREADS') or os.cpu_count() or 1), 20)} "
+        "blocks, one per OpenMP thread (vp_block); CPU s: the process's "
         "(time.process_time).", "",
         f"| order | steps per period | error@50 max (m) | median (m) | failed | 50 transits s | {args.long} transits s "
         f"| {args.long} transits CPU s | failed |",
