@@ -17,6 +17,7 @@ import pytest
 import vpforms
 from vpforms import RESULTS
 from vpforms.grids import SplinePotential, TensorSpline
+from vpforms.backends.native.codegen import kernel_parts
 from vpforms.phitime import (
     PhiTimeCoordinates,
     from_phi_time,
@@ -143,6 +144,23 @@ def test_native_equals_jax_and_stops_at_the_grid(field):
         np.testing.assert_array_equal(s.status[3:], RESULTS.left_domain)
     np.testing.assert_allclose(sols[1].xs[:3], sols[0].xs[:3], rtol=0, atol=1e-10)
     np.testing.assert_array_equal(sols[1].failed_step, sols[0].failed_step)
+
+
+@pytest.mark.parametrize("degree", [4, 5])
+def test_native_equals_jax_at_degrees_4_and_5(degree):
+    """The φ-time stages contract K's block over φ once for their two lines along v or Z
+    (``vp_lines``' shared-y path): on whole rows (gcc vector types) at degrees 3 (the test above) and
+    5, in scalar loops at other degrees (4). Each agrees with JAX to 1e-10 over two periods."""
+    f = phi_time_field(ToroidalPotential(A_cart, NFP), BOX, grid=GRID, degree=degree,
+                       name=f"solovev-3 φ-time spline, degree {degree}")
+    m = phi_time_scheme(f, "SE+SE", order=2)
+    src = kernel_parts(m, "auto", "run")[0]
+    assert f"vp_lines(fd, h, {degree}, {degree}, {degree}, i0, i1, i2, 0, 2," in src  # two lines along v
+    sols = [vpforms.integrate(m, starts(f), PERIOD / 8, 16, save_every=8, backend=b, progress=False)
+            for b in ("jax", "native")]
+    for s in sols:
+        np.testing.assert_array_equal(s.status, RESULTS.successful)
+    np.testing.assert_allclose(sols[1].xs, sols[0].xs, rtol=0, atol=1e-10)
 
 
 @pytest.mark.slow  # ~30–60 s: the coils' spline, its φ-time field, JAX and native runs
