@@ -188,22 +188,24 @@ def _map_body(st: MapStage, newton: bool, fixed: bool) -> list[str]:
     # caller asks (the guard's predictor, for the first stage: one evaluation of a(x) per step)
     comps = sorted(set(need.values()))
     # on a spline field a(x) is a whole 3-D contraction per stage (216 products at degree 5), which
-    # the Euler guess costs; the solve's own lines at the start value cost nothing more, and Newton
-    # from x takes one iteration more (its first step is the linearly implicit Euler step): the
-    # exact pass starts from x there, and evaluates a(x) only where the guard asks for it
+    # the Euler guess costs: the exact pass evaluates a(x) once per step, in the first stage (gnew),
+    # and every stage starts from x + h a(x₀) with the step's x₀ (a guess off by O(h·h_step), in
+    # the root's cell more often than x: W7-X's φ-time stages ~0.3 → ~0.1 cell changes each), or
+    # from x where the kernel passes no a (ga NULL)
     start = not fixed and any(sp.sympify(e).has(splines.SplineAt) for e in st.field_exprs)
     if start:
         comps = []
     if not fixed and comps:
         lines += _assign([f"ga{i + 1}" for i in range(3)], list(st.field_exprs), xs, "ge")
-        lines.append("if (ga) { ga[0] = ga1; ga[1] = ga2; ga[2] = ga3; }")
+        lines.append("if (ga && gnew) { ga[0] = ga1; ga[1] = ga2; ga[2] = ga3; }")
     elif not fixed:
         with data.scope():  # a C block
             own = _assign([f"ga{i + 1}" for i in range(3)], list(st.field_exprs), xs, "ge")
-        lines += ["if (ga) {", *(f"    {ln}" for ln in own), "    ga[0] = ga1; ga[1] = ga2; ga[2] = ga3;", "}"]
+        lines += ["if (ga && gnew) {", *(f"    {ln}" for ln in own), "    ga[0] = ga1; ga[1] = ga2; ga[2] = ga3;", "}"]
     elif comps:
         lines += _assign([f"ga{i + 1}" for i in comps], [st.field_exprs[i] for i in comps], xs, "ge")
-    guess = {k: (f"x{i + 1}" if start else f"x{i + 1} + h*ga{i + 1}") if k in need else "0.0"
+    guess = {k: (f"(ga ? x{i + 1} + h*ga[{i}] : x{i + 1})" if start else f"x{i + 1} + h*ga{i + 1}")
+             if k in need else "0.0"
              for k, i in ((2, Sig[2]), (1, Sig[1]))}
     # evaluated at the roots: g₂'s terms at Y₃ (the second solve's constants), volpot3 at (Y₃, Y₂)
     at_roots = {**base, Y3: c["Y3"], Y2: c["Y2"]}
@@ -367,13 +369,14 @@ def _rk4_body(field) -> list[str]:
 def _stage_fn(name: str, body: list[str], fixed: bool) -> str:
     """A stage: the exact one returns its status ``code``; the vectorised pass (``fixed``) its
     success flag ``ok`` (1.0: converged, finite; anything else is redone exactly). Its linkage is
-    ``_VP_STAGE`` (:func:`_kernel`: inlined, or compiled once and called). ``ga``: where the
-    caller wants the field a(x) at the stage's input x (the guard, of the first stage), else NULL."""
+    ``_VP_STAGE`` (:func:`_kernel`: inlined, or compiled once and called). ``ga``: the field a at
+    the step's start, written there by the stage with ``gnew`` (the first: for the guard and the
+    later stages' guesses on a spline field), read by the others; NULL where the caller has none."""
     step = "\n    ".join(body)
     ret, init = ("double", "double ok = 1.0;") if fixed else ("int", "int code = 0;")
     return f"""static _VP_STAGE {ret} {name}(double x1, double x2, double x3, double h,
                            double *restrict o1, double *restrict o2, double *restrict o3,
-                           const double *restrict fd, double *restrict ga) {{
+                           const double *restrict fd, double *restrict ga, int gnew) {{
     double X1, X2, X3; {init}
     {step}
     *o1 = X1; *o2 = X2; *o3 = X3;
@@ -549,12 +552,16 @@ def _kernel(method: Any, engine: str, entry: str) -> str:
         with data.scope(function=True):
             guard = _guard_c(field, kappa, fixed, given)
         names: dict[str, str] = {}  # body → function name (stages with the same map share one)
-        calls = ["double gd_ax[3];"] if given and guard[0] else []
+        # a(x₀) of the first stage also for the others' guesses where they are on its field
+        share = given and all(not isinstance(s, MapStage) or _same(s.field_exprs, stages[0][0].field_exprs)
+                              for s, _ in stages)
+        first = given and (guard[0] or share)
+        calls = ["double gd_ax[3];"] if first else []
         for k, (stage, coef) in enumerate(stages):
             with data.scope(function=True):
                 body = "\n".join(_stage_body(stage, engine == "newton", fixed))
             fn = names.setdefault(body, f"vp_{kind}{len(names)}")
-            ga = "gd_ax" if k == 0 and given and guard[0] else "0"
+            ga = "gd_ax, 1" if k == 0 and first else "gd_ax, 0" if share else "0, 0"
             call = f"{fn}(y1, y2, y3, {coef!r} * h, &y1, &y2, &y3, fd, {ga});"
             calls.append(f"ok *= {call}" if fixed else f"c = {call} code = code ? code : c;")
         fns[kind] = "".join(_stage_fn(fn, body.split("\n"), fixed) for body, fn in names.items())
