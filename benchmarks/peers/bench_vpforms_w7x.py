@@ -166,6 +166,17 @@ def _figure(ours: dict, simsopt_path: Path, path: Path) -> None:
                     ax.annotate(f"d{part['degree']} {'×'.join(map(str, part['cells']))} tol {r['tol']:g}",
                                 (r["seconds"], r["errors"]["bean_max_m"]), fontsize=6)
         ax.plot([], [], "s", color="C3", label="simsopt InterpolatedField (compute_fieldlines)")
+    # simsopt re-run in the session of a φ-time run (run_simsopt_w7x.py interp --work …, its part
+    # copied to data/simsopt_w7x_interp_d<degree>_k<k>_s<session>.json): the table above ran on a loaded machine
+    reruns = sorted((HERE / "data").glob("simsopt_w7x_interp_*_s*.json"))
+    for p in reruns:
+        part = json.loads(p.read_text())
+        for r in part.get("runs", []):
+            ax.loglog(r["seconds"], r["errors"]["bean_max_m"], "D", color="C1")
+            ax.annotate(f"d{part['degree']} {'×'.join(map(str, part['cells']))} tol {r['tol']:g} "
+                        f"({p.stem.rsplit('_', 1)[1]})", (r["seconds"], r["errors"]["bean_max_m"]), fontsize=6)
+    if reruns:
+        ax.plot([], [], "D", color="C1", label="simsopt InterpolatedField, re-run beside the φ-time bench")
     ax.set_xlabel(f"wall time, 20 lines × {ours['rows'][0]['long_transits']} transits (s)")
     ax.set_ylabel("section error at 50 transits, max over lines (m)")
     ax.set_title("W7-X: accuracy against wall time")
