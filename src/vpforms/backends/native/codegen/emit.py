@@ -190,8 +190,9 @@ def _map_body(st: MapStage, newton: bool, fixed: bool) -> list[str]:
     # on a spline field a(x) is a whole 3-D contraction per stage (216 products at degree 5), which
     # the Euler guess costs: the exact pass evaluates a(x) once per step, in the first stage (gnew),
     # and every stage starts from x + h a(x₀) with the step's x₀ (a guess off by O(h·h_step), in
-    # the root's cell more often than x: W7-X's φ-time stages ~0.3 → ~0.1 cell changes each), or
-    # from x where the kernel passes no a (ga NULL)
+    # the root's cell more often than x: on W7-X's φ-time K the block contractions per stage went
+    # 1.29 → 1.02, Newton iterations per solve 3.0–3.1 → 2.9–3.0), or from x where the kernel passes
+    # no a (ga NULL)
     start = not fixed and any(sp.sympify(e).has(splines.SplineAt) for e in st.field_exprs)
     if start:
         comps = []
