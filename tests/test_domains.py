@@ -276,6 +276,23 @@ def test_a_masked_line_is_its_runs_own_interpolant():
     np.testing.assert_allclose(s, make_interp_spline(xr, np.r_[y[25:], y[:8]], k=3)(xs), atol=1e-12)
 
 
+def test_a_periodic_run_that_fixes_no_coefficient_leaves_its_line_nan():
+    """A periodic line of 8 nodes with one node masked at degree 5: every B-spline reaches over the
+    one-node gap into both ends of the run, so the run fixes none of them alone — the line's
+    coefficients are all NaN (the batched cell solves have no cell to solve: not an IndexError),
+    and a fully kept line beside it is fitted."""
+    from vpforms.grids._bspline import _masked_axis
+
+    n, T = 8, 1.0
+    x = T * np.arange(n) / n
+    keep = np.ones((n, 2), bool)
+    keep[3, 0] = False
+    y = np.cos(2 * np.pi * x)[:, None] * np.ones(2)
+    t, c, _ = _masked_axis(x, T, np.where(keep, y, np.nan), keep, 5, 0)
+    assert np.all(np.isnan(c[:, 0]))
+    assert np.all(np.isfinite(c[:, 1]))
+
+
 @pytest.mark.parametrize("k, periodic", [(3, False), (5, False), (5, True)])
 def test_masked_runs_of_one_shape_share_one_fit_and_each_stays_its_own_interpolant(k, periodic, monkeypatch):
     """On a uniform grid the runs of one length and position class share one linear map (fitted once,

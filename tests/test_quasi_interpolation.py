@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from vpforms.grids import TensorSpline
-from vpforms.grids._quasi import knots_of, quasi_matrix
+from vpforms.grids._quasi import knots_of, quasi_matrix, quasi_reach
 
 
 def _grid(n=(14, 12, 10), seed=0):
@@ -115,19 +115,40 @@ def test_w7x_quintic_of_a_on_the_whole_box_is_accurate_inside_the_plasma():
     assert err[5, "quasi"] < err[3, "interpolate"] / 2
 
 
+@pytest.mark.parametrize("k, n, periodic", [(3, 20, False), (5, 48, False), (5, 24, True)])
+def test_the_reach_is_how_far_one_sample_moves_the_spline(k, n, periodic):
+    """quasi_reach, measured independently: the spline of a unit sample at node m (scipy's BSpline
+    of W[:, m]) is non-zero on some cells; the largest distance in nodes from such a cell's nearer
+    end to m, over all m, is the reach (periodically on a periodic axis)."""
+    from scipy.interpolate import BSpline
+
+    T = 2.0 if periodic else None
+    x = T * np.arange(n) / n if periodic else np.sort(np.r_[0.0, 1.0, np.random.default_rng(n).uniform(0, 1, n - 2)])
+    t = knots_of(x, k, T)
+    W = quasi_matrix(x, t, k, T)
+    ends = np.r_[x, x[0] + T] if periodic else x
+    frac = np.linspace(0.05, 0.95, 7)
+    reach = 0
+    for m in range(n):
+        s = BSpline(t, W[:, m], k)
+        for c in range(ends.size - 1):
+            if np.any(s(ends[c] + frac * (ends[c + 1] - ends[c])) != 0):
+                d = min(abs(m - c), abs(m - (c + 1)))
+                reach = max(reach, min(d, n - d) if periodic else d)
+    assert quasi_reach(x, k, T) == reach
+
+
 def test_w7x_quintic_of_a_on_a_domain_is_the_whole_boxs_there_and_nan_far_from_it():
     """With a domain the quasi-interpolant of A is sampled and fitted only within reach of the cells
     that meet it (plane by plane; quasi_reach nodes, a cube): on the domain its field equals the whole
     box's bit for bit, and far outside it is NaN (not the coils' field: not sampled)."""
     from vpforms.coils import device
-    from vpforms.grids._quasi import quasi_reach
     from vpforms.problems.coil_fields import spline_coil_field
     from vpforms.problems.devices import device_domain, grid_box
 
     coils = device("w7x", rule="quadrature")
     R, Z = grid_box("w7x")
     dom = device_domain("w7x")
-    assert quasi_reach(np.linspace(*R, 48), 5, None) == 7
     masked, _ = spline_coil_field(coils, R, Z, n_R=48, n_phi=96, n_Z=48, degree=5, fit="quasi", domain=dom, name="m")
     whole, _ = spline_coil_field(coils, R, Z, n_R=48, n_phi=96, n_Z=48, degree=5, fit="quasi", name="w")
     p = dom.sample_points(5000, seed=3)

@@ -167,6 +167,8 @@ def _fit_map(xr: np.ndarray, t: np.ndarray, k: int, n: int, period: float | None
         cells.append(c)
         ats.append(at)
         done[at] = True
+    if not cells:  # a run no B-spline of which it fixes alone (a short periodic line, a 1-node gap)
+        return touched, M
     # the cells' (k + 1)-square systems in one batched solve
     rows = np.asarray(cells)[:, None] * (k + 1) + np.arange(k + 1)  # (cells, k + 1)
     sol = np.linalg.solve(D[rows[:, :, None], touched[np.asarray(ats)][:, None, :]], S[rows])
