@@ -14,6 +14,13 @@ reference's crossing 2(k + 1) with Z negated. Per setting: the error at 50 trans
 median over the lines) and the wall time of 50 and of ``--long`` transits (the kernel compiled
 before). Writes ``results_w7x_phi_time.md`` and ``.json`` (``--append``: adds to them), which
 ``bench_vpforms_w7x.py`` draws in its figure of error against wall time.
+
+``--simsopt PYTHON`` (simsopt's own virtual environment; never in CI): after vpforms' rows, in the
+same invocation, ``run_simsopt_w7x.py interp`` runs each ``--simsopt-settings`` (degree:k:tol, cells
+(20, 40, 10)·k) with that interpreter on one thread, one setting after the other (nothing else
+running), and the results file gets simsopt's rows and, per vpforms row at ≤ 1e-5 m, the ratio of
+its wall time to that of simsopt's fastest setting at ≤ 1e-5 m (issue #38's measure) — side by
+side, from one run.
 """
 
 from __future__ import annotations
@@ -55,6 +62,10 @@ def main(argv=None) -> int:
     ap.add_argument("--jax-cache", action="store_true",
                     help="JAX's persistent compilation cache on, as the command line has it (a second run "
                          "then builds without compiling)")
+    ap.add_argument("--simsopt", default=None, metavar="PYTHON",
+                    help="simsopt's interpreter: run its InterpolatedField settings after vpforms' (module docstring)")
+    ap.add_argument("--simsopt-settings", default="5:2:1e-10,5:1:1e-11",
+                    help="degree:k:tol, … (k: cells (20, 40, 10)·k; one process per degree:k, its tols in it)")
     args = ap.parse_args(argv)
     if args.jax_cache:
         from vpforms._cache import enable_jax_cache
@@ -99,6 +110,7 @@ def main(argv=None) -> int:
         rows.append((order if comp is None else f"{order} ({comp})", n, emax, emed, int(sol.n_failed), t50, t_long,
                      c_long, int(long.n_failed)))
         print(rows[-1], flush=True)
+    sims = _simsopt_runs(args.simsopt, args.simsopt_settings, args.long) if args.simsopt else []
     lines = [
         "# W7-X, φ as the time on a domain that follows the plasma (issue #38)", "",
         f"`python benchmarks/peers/bench_w7x_phi_time.py {' '.join(argv if argv is not None else sys.argv[1:])}` — "
@@ -119,6 +131,22 @@ def main(argv=None) -> int:
         "|---|---|---|---|---|---|---|---|---|"]
     lines += [f"| {o} | {n} | {a:.2e} | {b:.2e} | {f} | {t1:.2f} | {t2:.1f} | {c2:.1f} | {f2} |"
               for o, n, a, b, f, t1, t2, c2, f2 in rows]
+    if sims:
+        lines += ["", f"simsopt in the same invocation (`run_simsopt_w7x.py interp`, {args.simsopt}, OMP_NUM_THREADS=1, "
+                  "after vpforms' rows): InterpolatedField, 20 lines, the same reference; its build apart.", "",
+                  f"| simsopt setting | build s | error@50 max (m) | {args.long} transits s | CPU s | load before |",
+                  "|---|---|---|---|---|---|"]
+        lines += [f"| degree {r['degree']}, {'×'.join(map(str, r['cells']))}, tol {r['tol']:g} | {r['build_s']:.1f} "
+                  f"| {r['error_max_m']:.2e} | {r['long_s']:.1f} | {r['long_cpu_s']:.1f} | {r['load'][0]:.2f} |" for r in sims]
+        lines += ["", "| vpforms row | error@50 max (m) | s | simsopt's fastest at ≤ 1e-5 m | its s | ratio |",
+                  "|---|---|---|---|---|---|"]
+        for o, n, a, _, _, _, t2, _, _ in rows:
+            ok = [r for r in sims if r["error_max_m"] <= 1e-5] if a <= 1e-5 else []
+            if ok:
+                best = min(ok, key=lambda r: r["long_s"])
+                lines.append(f"| {o}, n = {n} | {a:.2e} | {t2:.1f} | degree {best['degree']}, "
+                             f"{'×'.join(map(str, best['cells']))}, tol {best['tol']:g} ({best['error_max_m']:.2e}) "
+                             f"| {best['long_s']:.1f} | **{t2 / best['long_s']:.2f}×** |")
     text = "\n".join(lines) + "\n"
     if args.append and Path(args.out).is_file():
         text = Path(args.out).read_text() + "\n" + "\n".join(lines[2:]) + "\n"
@@ -130,10 +158,36 @@ def main(argv=None) -> int:
                  "A_error": err_A, "K_error": pf.phi_time_spline_error, "load_before": load,
                  "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
                  "rows": [dict(zip(("order", "n", "error_max_m", "error_median_m", "failed", "t50_s", "long_s",
-                                    "long_cpu_s", "long_failed"), r)) for r in rows], "long_transits": args.long})
+                                    "long_cpu_s", "long_failed"), r)) for r in rows], "long_transits": args.long,
+                 "simsopt": sims})
     js.write_text(json.dumps({"tool": "vpforms φ-time", "version": vpforms.__version__, "runs": runs}, indent=1))
     print("\n".join(lines))
     return 0
+
+
+def _simsopt_runs(python: str, settings: str, transits: int) -> list[dict]:
+    """simsopt's InterpolatedField settings (degree:k:tol, …) run by ``run_simsopt_w7x.py interp`` with
+    ``python`` on one thread, one process per degree:k (its build once), in order: a row per tol."""
+    import subprocess
+    import tempfile
+
+    groups: dict[tuple[int, int], list[float]] = {}
+    for item in settings.split(","):
+        d, k, tol = item.split(":")
+        groups.setdefault((int(d), int(k)), []).append(float(tol))
+    out = []
+    with tempfile.TemporaryDirectory() as work:
+        for (d, k), tols in groups.items():
+            cmd = [python, str(HERE / "run_simsopt_w7x.py"), "interp", "--degree", str(d), "--k", str(k),
+                   "--tols", *map(str, tols), "--transits", str(transits), "--work", work]
+            subprocess.run(cmd, check=True, cwd=HERE, env={**os.environ, "OMP_NUM_THREADS": "1"})
+            part = json.loads((Path(work) / f"interp_d{d}_k{k}.json").read_text())
+            for r in part["runs"]:
+                out.append({"degree": d, "cells": part["cells"], "tol": r["tol"], "build_s": part["build_seconds"],
+                            "error_max_m": r["errors"]["bean_max_m"], "long_s": r["seconds"],
+                            "long_cpu_s": r["cpu_seconds"], "load": r["load"]})
+                print(out[-1], flush=True)
+    return out
 
 
 if __name__ == "__main__":
